@@ -1,0 +1,238 @@
+"""The catalogue of the paper's 10 primitive tasks (Table I, PT1–PT10): the single registry of their
+identifiers, task-name patterns and the conditions each one achieves.
+
+Everything that names a primitive — the CLI's ``--exclude``, the LLM example selection, Alg. 1's
+condition-to-task mapping, the task suite — reads it from :data:`PRIMITIVES`.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+
+from taskcond.conditions import (
+    ConditionError,
+    ContainerState,
+    GripperState,
+    Predicate,
+    Relation,
+    SpatialRelation,
+    is_gripper,
+    normalize_name,
+)
+
+LETTERS = "ABCDEFGH"
+"""Object placeholders used in prompts (§III-B: object names are replaced by letters)."""
+
+_ARTICLES = re.compile(r"\b(the|a|an)\b ")
+
+
+class TaskNameError(ValueError):
+    """A task name that no primitive's pattern matches, with the valid patterns in its message."""
+
+
+@dataclass(frozen=True)
+class Primitive:
+    """One primitive task of the catalogue.
+
+    Attributes:
+        id: identifier used everywhere (CLI, registry, skill library), e.g. ``"move_into"``.
+        title: the paper's name (Table I).
+        pattern: canonical task name with letter placeholders, e.g. ``"move A into B"``.
+        aliases: other phrasings accepted by the parser, same placeholders.
+        n_objects: number of objects the task name names.
+    """
+
+    id: str
+    title: str
+    pattern: str
+    aliases: tuple[str, ...] = ()
+    n_objects: int = 1
+
+    @property
+    def verb(self) -> str:
+        return self.pattern.split()[0]
+
+    def task_name(self, *objects: str) -> str:
+        """The canonical task name for ``objects`` (in pattern order)."""
+        if len(objects) != self.n_objects:
+            raise TaskNameError(f"{self.id} takes {self.n_objects} object(s), got {len(objects)}: {objects}")
+        return _fill(self.pattern, objects)
+
+    def regexes(self) -> list[re.Pattern[str]]:
+        out = []
+        for pat in (self.pattern, *self.aliases):
+            body = re.escape(pat)
+            for letter in LETTERS[: self.n_objects]:
+                body = re.sub(rf"\b{letter}\b", f"(?P<{letter}>.+?)", body, count=1)
+            out.append(re.compile(f"^{body}$"))
+        return out
+
+
+def _fill(pattern: str, objects: tuple[str, ...] | list[str]) -> str:
+    out = pattern
+    for letter, obj in zip(LETTERS, objects, strict=False):
+        out = re.sub(rf"\b{letter}\b", obj, out, count=1)
+    return out
+
+
+PRIMITIVES: dict[str, Primitive] = {
+    p.id: p
+    for p in (
+        Primitive("grasp", "Grasp", "grasp A", ("pick up A", "pick A up", "pick A", "grab A", "hold A up", "hold A")),
+        Primitive("release", "Release", "release A", ("let go of A", "drop A", "put down A", "put A down")),
+        Primitive("open", "Open", "open A"),
+        Primitive("close", "Close", "close A", ("shut A",)),
+        Primitive("tilt", "Tilt", "tilt A", ("pour A",)),
+        Primitive("fold", "Fold", "fold A"),
+        Primitive("move", "Move", "move A to position", ("move A to the position", "move A to a position")),
+        Primitive(
+            "move_on_top",
+            "MoveOnTop",
+            "move A on top of B",
+            ("put A on top of B", "place A on top of B", "place A onto B", "put A onto B", "place A on B",
+             "put A on B", "move A onto B"),
+            2,
+        ),
+        Primitive(
+            "move_into",
+            "MoveInTo",
+            "move A into B",
+            ("put A into B", "place A into B", "put A in B", "place A in B"),
+            2,
+        ),
+        Primitive(
+            "move_in_front",
+            "MoveInFront",
+            "move A in front of B",
+            ("put A in front of B", "place A in front of B"),
+            2,
+        ),
+    )
+}
+"""The registry: primitive id → :class:`Primitive`, in the paper's Table I order."""
+
+
+@dataclass(frozen=True)
+class ParsedTask:
+    """A task name parsed into its primitive and objects (in pattern order, canonical names)."""
+
+    primitive: Primitive
+    objects: tuple[str, ...]
+
+    @property
+    def name(self) -> str:
+        """Canonical task name, e.g. ``"move coffee mug into top drawer"``."""
+        return self.primitive.task_name(*self.objects)
+
+    def letters(self) -> dict[str, str]:
+        """Object → letter mapping used in prompts (``{"bottle": "A", "box": "B"}``)."""
+        return {obj: LETTERS[i] for i, obj in enumerate(self.objects)}
+
+    @property
+    def letter_name(self) -> str:
+        """The task name with letters for objects, as shown to the LLM (``"move A into B"``)."""
+        return self.primitive.pattern
+
+
+def _valid_patterns() -> str:
+    return "; ".join(p.pattern for p in PRIMITIVES.values())
+
+
+def _specificity(prim: Primitive, regex: re.Pattern[str]) -> int:
+    return len(re.sub(r"\(\?P<\w>\.\+\?\)", "", regex.pattern))
+
+
+_PATTERNS: list[tuple[Primitive, re.Pattern[str]]] = sorted(
+    ((p, r) for p in PRIMITIVES.values() for r in p.regexes()), key=lambda pr: -_specificity(*pr)
+)
+"""Every pattern and alias, most specific (longest literal text) first, so that ``put A in front of B`` is
+not read as ``put A in B``."""
+
+
+def _parsed(name: str, prim: Primitive, m: re.Match[str]) -> ParsedTask:
+    try:
+        objects = tuple(normalize_name(m.group(letter)) for letter in LETTERS[: prim.n_objects])
+    except ConditionError as exc:
+        raise TaskNameError(f"{name!r}: {exc}") from None
+    if any(is_gripper(o) for o in objects):
+        raise TaskNameError(f"{name!r}: the gripper is not an object a task can act on")
+    if len(set(objects)) != len(objects):
+        raise TaskNameError(f"{name!r}: the two objects must differ")
+    return ParsedTask(prim, objects)
+
+
+def parse_task(name: str) -> ParsedTask:
+    """Parse a task name such as ``"move the coffee mug into the top drawer"``.
+
+    Articles are dropped, case and spacing normalized, multi-word object names kept whole. Raises
+    :class:`TaskNameError` with the valid patterns when nothing matches, when the verb is unknown, or when
+    the task names the wrong number of objects.
+    """
+    canon = " ".join(name.lower().replace(".", " ").split())
+    canon = _ARTICLES.sub("", canon + " ").strip() if canon else canon
+    if not canon:
+        raise TaskNameError(f"empty task name; valid patterns: {_valid_patterns()}")
+    for prim, regex in _PATTERNS:
+        m = regex.match(canon)
+        if m is not None:
+            return _parsed(name, prim, m)
+    verbs = sorted({p.verb for p in PRIMITIVES.values()} | {a.split()[0] for p in PRIMITIVES.values()
+                                                             for a in p.aliases})
+    first = canon.split()[0]
+    if first not in verbs:
+        raise TaskNameError(f"unknown verb {first!r} in {name!r}; valid verbs: {', '.join(verbs)}")
+    same_verb = [pat for p in PRIMITIVES.values() for pat in (p.pattern, *p.aliases) if pat.split()[0] == first]
+    raise TaskNameError(
+        f"{name!r} does not match a task pattern (wrong number of objects?); "
+        f"patterns for {first!r}: {'; '.join(same_verb)}"
+    )
+
+
+def primitive_ids() -> list[str]:
+    return list(PRIMITIVES)
+
+
+def get_primitive(pid: str) -> Primitive:
+    """Look up a primitive by id, with a one-line error listing the valid ids."""
+    try:
+        return PRIMITIVES[pid]
+    except KeyError:
+        raise TaskNameError(f"unknown primitive {pid!r}; valid: {', '.join(PRIMITIVES)}") from None
+
+
+def task_for_condition(pred: Predicate, grasped: str | None = None) -> str | None:
+    """The primitive task that achieves an unmet condition: Cond2Task of the paper's Alg. 1 (§III-E).
+
+    ``gripper grasping X`` → ``grasp X``; ``gripper not grasping`` → ``release Y`` for the currently
+    ``grasped`` object Y; ``X open`` → ``open X``; ``X closed`` → ``close X``; ``A inside B`` → ``move A into
+    B``; ``A above B`` → ``move A on top of B``; ``A below B`` → ``move B on top of A``; ``A in front of B`` →
+    ``move A in front of B``. Returns ``None`` when no primitive achieves the condition on its own (a
+    relation of the gripper itself, or releasing when nothing is grasped).
+    """
+    if isinstance(pred, GripperState):
+        if pred.obj is not None:
+            return PRIMITIVES["grasp"].task_name(pred.obj)
+        return None if grasped is None else PRIMITIVES["release"].task_name(grasped)
+    if isinstance(pred, ContainerState):
+        return PRIMITIVES["open" if pred.is_open else "close"].task_name(pred.container)
+    if is_gripper(pred.subject) or is_gripper(pred.reference):
+        return None
+    if pred.relation is Relation.BELOW:
+        return PRIMITIVES["move_on_top"].task_name(pred.reference, pred.subject)
+    target = {Relation.INSIDE: "move_into", Relation.ABOVE: "move_on_top", Relation.IN_FRONT_OF: "move_in_front"}
+    return PRIMITIVES[target[pred.relation]].task_name(pred.subject, pred.reference)
+
+
+__all__ = [
+    "LETTERS",
+    "PRIMITIVES",
+    "ParsedTask",
+    "Primitive",
+    "SpatialRelation",
+    "TaskNameError",
+    "get_primitive",
+    "parse_task",
+    "primitive_ids",
+    "task_for_condition",
+]
