@@ -1,0 +1,1 @@
+"""The PyBullet kitchen task suite (paper §IV). Needs the ``[sim]`` extra."""
