@@ -112,6 +112,14 @@ def test_shape_scales_with_the_goal_offset(
     assert_allclose(shifted, reference + shift, rtol=0, atol=1e-12)
 
 
+def test_displaced_goal_repeats_the_demonstrated_displacement(
+    params: DMPParameters, demo: tuple[np.ndarray, np.ndarray]
+) -> None:
+    _, positions = demo
+    start = np.array([0.0, 0.5, 0.2])
+    assert_allclose(params.displaced_goal(start), start + positions[-1] - positions[0], atol=1e-15)
+
+
 def test_goal_change_mid_rollout_converges_to_the_new_goal(
     params: DMPParameters, demo: tuple[np.ndarray, np.ndarray]
 ) -> None:

@@ -30,9 +30,9 @@ directly in numpy (about as long as the adapter would have been) and adds no dep
 Degenerate goal offset: if ``g − y0`` of the demonstration is (almost) zero in a dimension, the
 scaled forcing term of Eq. 2 cannot represent the demonstration (the locally weighted regression
 divides by ``(g − y0)²``) and any later goal change would amplify the shape by ``1 / (g − y0)``.
-Such dimensions fall back to the unscaled forcing term ``f = Σψw/Σψ · x`` (Ijspeert et al. 2013
-point out this limitation of the scaled form): the learned shape is then replayed unscaled,
-offset to the new start and goal. The choice is recorded per dimension in
+Such dimensions fall back to the unscaled forcing term ``f = Σψw/Σψ · x`` (a known weakness of the
+scaled form; Pastor et al., ICRA 2009, reformulate the DMP partly to avoid it): the learned shape is
+then replayed unscaled, offset to the new start and goal. The choice is recorded per dimension in
 :attr:`DMPParameters.goal_scaled`. In a scaled dimension, a rollout whose own goal equals its start
 gets a zero forcing term, exactly as Eq. 2 prescribes.
 """
@@ -217,6 +217,11 @@ class DMPParameters:
     def n_basis(self) -> int:
         """Number of basis functions N."""
         return self.weights.shape[1]
+
+    def displaced_goal(self, y0: np.ndarray) -> np.ndarray:
+        """Goal for a task without a target object (moving, folding; §III-E): the new start plus the
+        demonstration's displacement ``goal − y0``. Returns a (d,) array."""
+        return _vector("y0", y0, self.n_dims) + (self.goal - self.y0)
 
     def phase(self, t: np.ndarray | float, tau: float | None = None) -> np.ndarray:
         """Canonical-system phase x(t) = x0 exp(−α_x t / τ), the solution of τ ẋ = −α_x x (Eq. 2).
