@@ -3,9 +3,9 @@ kinematics (no Kinova model ships with ``pybullet_data``; the paper's suite has 
 Kinova").
 
 Sources:
-    * Kinematics: Kinova Gen3 Ultra lightweight robot User Guide (Kinova Robotics), section "Classic DH
-      parameters" for the 7 DoF spherical-wrist arm. Base to frame 0: α = π, all else 0. Frames 1..7:
-      a_i = 0; α_i = π/2 for i = 1..6, α_7 = π;
+    * Kinematics: Kinova Gen3 Ultra lightweight robot User Guide (Kinova Robotics), chapter on the arm's
+      kinematics, classic DH parameters of the 7 DoF spherical-wrist arm. Base to frame 0: α = π, all else
+      0. Frames 1..7: a_i = 0; α_i = π/2 for i = 1..6, α_7 = π;
       d = -(0.1564+0.1284), -(0.0054+0.0064), -(0.2104+0.2104), -(0.0064+0.0064), -(0.2084+0.1059), 0,
       -(0.1059+0.0615) m; θ_i = q_i + offset with offsets 0, π, π, π, π, π, π. Frame 7 is Kinova's tool
       frame (the flange of the interface module, z pointing out of the arm). Each d is printed as a sum of
@@ -123,6 +123,7 @@ GEN3_LINK_NAMES: tuple[str, ...] = (
 )
 
 GEN3_HOME = np.radians([0.0, 15.0, 180.0, 230.0 - 360.0, 0.0, -35.0, 90.0])
+GEN3_HOME.setflags(write=False)
 """Home joint positions (7,), rad: Kinova's Home with the gripper pointing down (see module docstring)."""
 
 ACTUATOR_RADII: tuple[float, ...] = (0.05, 0.045, 0.045, 0.045, 0.04, 0.035, 0.035)
@@ -257,7 +258,8 @@ class Shape:
 
 @dataclass(frozen=True)
 class LinkSpec:
-    """A URDF link of uniform density: its total mass (kg) is shared among its shapes by volume."""
+    """A URDF link of uniform density: its total mass (kg) is shared among its shapes by volume. A link
+    without shapes is a frame marker (e.g. the tool centre point) with a token inertia."""
 
     name: str
     mass: float
@@ -388,9 +390,9 @@ def gen3_urdf(gripper: GripperGeometry = GRIPPER) -> str:
         zip(GEN3_HOUSINGS, GEN3_DH, ACTUATOR_RADII, strict=True)
     ):
         sign = math.copysign(1.0, row.d)
-        if (
-            proximal > 0
-        ):  # carried by link i (the link before joint i+1), expressed through joint i+1's origin
+        # The proximal housing belongs to link i (before joint i+1), placed through joint i+1's origin; it
+        # is symmetric about that joint's axis, so the joint's rotation does not move it.
+        if proximal > 0:
             shapes[i].append(_axis_segment(origins[i], 0.0, sign * proximal, radius))
         if distal > 0:
             shapes[i + 1].append(_axis_segment(np.eye(4), sign * proximal, row.d, radius))
@@ -508,9 +510,9 @@ class IKResult:
 class KinovaArm:
     """A Kinova Gen3 7-DoF arm with the parallel gripper, loaded into a PyBullet client.
 
-    Joint commands use PyBullet position control at the published efforts and velocities. Methods whose
-    name says ``move`` step the simulation themselves (``p.stepSimulation`` on the arm's client, which moves
-    the whole world); the others only set motor targets or read state.
+    Joint commands use PyBullet position control at the published efforts and velocities. :meth:`step` and
+    the methods whose name says ``move`` step the simulation (``p.stepSimulation`` on the arm's client, which
+    moves the whole world); the others only set motor targets or read state (IK restores what it touches).
 
     Args:
         client: PyBullet physics client id.
