@@ -1,0 +1,577 @@
+"""Environment information acquiring (paper §III-A.2): what the framework knows about the scene at one moment.
+
+:class:`Perception` reads a PyBullet scene through its :class:`~taskcond.sim.description.SceneDescription`
+and :meth:`Perception.observe` returns an :class:`EnvironmentInfo` with
+
+* **object centres and bounding boxes** (:class:`ObjectBox`, axis-aligned, world frame, metres), either
+  the paper's way — PyBullet's ground-truth AABB of every object visible in the semantic point cloud, plus
+  Gaussian noise on each coordinate of the centre and the box (``mode="ground_truth"``) — or measured from
+  the merged point clouds of the cameras (``mode="point_cloud"``);
+* **spatial relations** ``inside``, ``above``, ``below``, ``in front of`` computed from centres and boxes
+  with REFLECT-style rules (Liu et al. 2023), see :func:`spatial_relations` and :class:`RelationThresholds`;
+* **object states**: ``gripper grasping X`` / ``gripper not grasping`` from finger contacts, ``X open`` /
+  ``X closed`` from the container's joint position (open vessels without a joint are always open);
+* **collisions** (:class:`Contact`) between named bodies with their world positions.
+
+Predicates are exactly those of :mod:`taskcond.conditions`, so the current conditions compare directly with
+the pre- and post-conditions of a :class:`~taskcond.conditions.TaskCondition`.
+
+Naming of bodies and links: a :class:`~taskcond.sim.description.NamedBody` names one link of a body (``-1``
+= the base); links nobody names belong to their nearest named ancestor link, so a cabinet's base owns its
+unnamed handle links while each named drawer owns its own. Every link of a gripper's arm is the gripper in
+contacts; the gripper's *box* is the axis-aligned box of its two finger links and its *centre* the grasp point
+(end-effector link), both from forward kinematics in both modes and never noisy (a robot knows where its own
+hand is).
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass, field
+from typing import Literal
+
+import numpy as np
+import pybullet as p
+
+from taskcond.conditions import (
+    Collision,
+    ContainerState,
+    GripperState,
+    Predicate,
+    Relation,
+    SpatialRelation,
+)
+from taskcond.sim.camera import CameraSpec, RGBDFrame, render
+from taskcond.sim.description import GripperSpec, SceneDescription
+
+Mode = Literal["ground_truth", "point_cloud"]
+
+_EPS = 1e-9
+_BOX_KINDS = ("object", "container", "furniture")
+"""Kinds of named bodies that get a box and take part in spatial relations (robots do not; the gripper's box
+comes from its :class:`~taskcond.sim.description.GripperSpec`)."""
+
+DEFAULT_CAMERAS: tuple[CameraSpec, ...] = (
+    CameraSpec(eye=(1.3, 0.7, 1.1), target=(0.5, 0.0, 0.2)),
+    CameraSpec(eye=(1.3, -0.7, 1.1), target=(0.5, 0.0, 0.2)),
+)
+"""Two 320×240 cameras looking down at a table in front of a robot at the origin facing +x."""
+
+
+@dataclass(frozen=True, eq=False)
+class ObjectBox:
+    """Centre and axis-aligned bounding box of one named object, world frame, metres.
+
+    Attributes:
+        name: the object's name in conditions.
+        center: (3,) centre position; the box centre for measured boxes, noisy independently of the box in
+            the paper's ground-truth-plus-noise mode.
+        lower, upper: (3,) minimum and maximum corners, ``lower <= upper``.
+    """
+
+    name: str
+    center: np.ndarray
+    lower: np.ndarray
+    upper: np.ndarray
+
+    @property
+    def size(self) -> np.ndarray:
+        """(3,) edge lengths in metres."""
+        return self.upper - self.lower
+
+
+@dataclass(frozen=True)
+class RelationThresholds:
+    """Named constants of the spatial-relation and contact rules (lengths in metres, fractions in [0, 1]).
+
+    Attributes:
+        inside_margin: ``A inside B`` needs A's centre within B's box grown by this margin on every side.
+        inside_fraction: ... and at least this fraction of A's box volume inside B's box (REFLECT's
+            ``INSIDE_THRESH``).
+        above_overlap: ``A above B`` needs the horizontal footprints to overlap by at least this fraction of
+            the smaller footprint's area ...
+        above_tolerance: ... and A's bottom no lower than this distance below B's top (resting contact,
+            measurement error), with A's centre higher than B's.
+        front_min_offset: ``A in front of B`` needs A's centre at least this far ahead of B's along the
+            scene's front direction ...
+        front_lateral_overlap: ... the boxes' extents across the front direction (horizontal, lateral) to
+            overlap by at least this fraction of the narrower one ...
+        front_max_gap: ... the free gap between A's back face and B's front face to be at most this, and
+            neither object above, below or inside the other.
+        grasp_opposition: the gripper grasps X when X touches both finger links and the mean contact normals
+            of the two fingers oppose each other: ``dot(n1, n2) <= -grasp_opposition`` (X is squeezed
+            between the fingers).
+        contact_distance: contact points farther apart than this (PyBullet keeps manifold points up to the
+            contact-breaking threshold) are not contacts.
+    """
+
+    inside_margin: float = 0.01
+    inside_fraction: float = 0.5
+    above_overlap: float = 0.5
+    above_tolerance: float = 0.015
+    front_min_offset: float = 0.02
+    front_lateral_overlap: float = 0.25
+    front_max_gap: float = 0.3
+    grasp_opposition: float = 0.5
+    contact_distance: float = 0.002
+
+
+@dataclass(frozen=True)
+class PerceptionConfig:
+    """How :class:`Perception` acquires environment information.
+
+    Attributes:
+        mode: ``"ground_truth"``: PyBullet's AABBs of the objects visible to the cameras (the paper's
+            method); ``"point_cloud"``: boxes of the merged per-object point clouds of all cameras.
+        noise_sigma: standard deviation in metres of the Gaussian noise added to each coordinate of every
+            object's centre and box corners (paper §III-A.2); 0 for none. Applied in both modes.
+        cameras: the semantic RGB-D cameras.
+        thresholds: constants of the relation, grasp and contact rules.
+        front: world direction pointing out of the scene towards the robot/viewer; ``A in front of B`` means
+            A is further along it than B. Only its horizontal part is used. Default ``-x``: a robot at the
+            origin facing +x looks at a table at positive x.
+        check_visibility: in ground-truth mode, render the cameras and keep only objects seen in at least
+            ``min_visible_pixels`` pixels; ``False`` skips rendering and reports every object (faster).
+        min_visible_pixels: pixels (summed over cameras) an object needs to count as seen.
+    """
+
+    mode: Mode = "ground_truth"
+    noise_sigma: float = 0.0
+    cameras: tuple[CameraSpec, ...] = DEFAULT_CAMERAS
+    thresholds: RelationThresholds = field(default_factory=RelationThresholds)
+    front: tuple[float, float, float] = (-1.0, 0.0, 0.0)
+    check_visibility: bool = True
+    min_visible_pixels: int = 10
+
+    def __post_init__(self) -> None:
+        if self.mode not in ("ground_truth", "point_cloud"):
+            raise ValueError(f"mode must be 'ground_truth' or 'point_cloud', not {self.mode!r}")
+        if self.noise_sigma < 0:
+            raise ValueError(f"noise_sigma must be >= 0, not {self.noise_sigma}")
+        if not self.cameras and (self.mode == "point_cloud" or self.check_visibility):
+            raise ValueError("point-cloud mode and visibility checks need at least one camera")
+        if np.hypot(self.front[0], self.front[1]) < _EPS:
+            raise ValueError(f"front {self.front} has no horizontal component")
+
+
+@dataclass(frozen=True, eq=False)
+class Contact:
+    """Two named bodies touching: all their contact points merged.
+
+    Attributes:
+        a, b: the bodies' names (``a < b``); every link of a gripper's arm is reported as the gripper.
+        position: (3,) world position in metres: the mean of the contact points, weighted by normal force
+            when any force acts.
+        normal_force: total normal force in newtons over the contact points, from the last simulation step.
+    """
+
+    a: str
+    b: str
+    position: np.ndarray
+    normal_force: float
+
+
+@dataclass(frozen=True)
+class Timing:
+    """Wall-clock seconds spent in one :meth:`Perception.observe`."""
+
+    render_s: float
+    boxes_s: float
+    predicates_s: float
+    total_s: float
+
+
+@dataclass(frozen=True, eq=False)
+class EnvironmentInfo:
+    """The environment information of one moment (paper §III-A.2).
+
+    Attributes:
+        boxes: centre and box of every perceived object and of each gripper, by name.
+        predicates: every spatial relation and object state that currently holds, in the vocabulary of
+            :mod:`taskcond.conditions`.
+        contacts: touching pairs of named bodies.
+        timing: where the time went.
+    """
+
+    boxes: dict[str, ObjectBox]
+    predicates: frozenset[Predicate]
+    contacts: list[Contact]
+    timing: Timing
+
+    @property
+    def collisions(self) -> frozenset[Collision]:
+        """The touching pairs as condition-vocabulary collisions (unordered)."""
+        return frozenset(Collision(c.a, c.b) for c in self.contacts)
+
+    def missing(self, conditions: Iterable[Predicate]) -> list[Predicate]:
+        """The given conditions (e.g. a task's pre-conditions) that do not hold now, in their order."""
+        return [c for c in conditions if c not in self.predicates]
+
+
+def spatial_relations(
+    boxes: Mapping[str, ObjectBox],
+    thresholds: RelationThresholds,
+    front: tuple[float, float, float] = (-1.0, 0.0, 0.0),
+    grippers: Iterable[str] = ("gripper",),
+) -> frozenset[SpatialRelation]:
+    """The spatial relations between all ordered pairs of boxes (paper §III-A.2, rules after REFLECT).
+
+    With A's and B's centres ``cA``, ``cB`` and boxes, ``t = thresholds`` and ``f`` the unit horizontal front
+    direction:
+
+    * ``A inside B``: ``cA`` lies in B's box grown by ``t.inside_margin``, at least ``t.inside_fraction``
+      of A's box volume lies in B's box, and A's box is not larger than B's.
+    * ``A inside G`` for a gripper G (whose box, the fingers', is smaller than what it holds): the fingers
+      are around A, i.e. G's centre (its grasp point) lies in A's box grown by ``t.inside_margin`` and
+      along at least one axis G's box spans A's box from side to side. ``G inside A`` is dropped when
+      ``A inside G`` holds.
+    * ``A above B``: the horizontal footprints overlap by ``>= t.above_overlap`` of the smaller one, A's
+      bottom is at least B's top minus ``t.above_tolerance``, and ``cA`` is higher than ``cB``.
+    * ``A below B`` exactly when ``B above A``.
+    * ``A in front of B``: ``(cA - cB)·f >= t.front_min_offset``; the boxes' lateral extents (across ``f``)
+      overlap by ``>= t.front_lateral_overlap`` of the narrower one; the gap from A's back face to B's front
+      face along ``f`` is ``<= t.front_max_gap``; and neither is above, below or inside the other.
+
+    Args:
+        boxes: object boxes by name (world frame, metres).
+        thresholds: the rule constants.
+        front: direction towards the robot/viewer; only its horizontal part counts.
+        grippers: names of the boxes that are grippers.
+    """
+    names = list(boxes)
+    if len(names) < 2:
+        return frozenset()
+    lo = np.stack([boxes[n].lower for n in names])
+    hi = np.stack([boxes[n].upper for n in names])
+    c = np.stack([boxes[n].center for n in names])
+    size = np.maximum(hi - lo, _EPS)
+    gripper_names = set(grippers)
+    is_grip = np.array([n in gripper_names for n in names])
+    t = thresholds
+    off_diagonal = ~np.eye(len(names), dtype=bool)
+
+    # inter[i, j]: (3,) edge lengths of the intersection of boxes i and j.
+    inter = np.clip(np.minimum(hi[:, None], hi[None]) - np.maximum(lo[:, None], lo[None]), 0.0, None)
+
+    # centre_in[i, j]: centre of i inside box j grown by the margin.
+    m = t.inside_margin
+    centre_in = np.all((c[:, None] >= lo[None] - m) & (c[:, None] <= hi[None] + m), axis=2)
+    volume = size.prod(axis=1)
+    volume_fraction = inter.prod(axis=2) / volume[:, None]
+    inside = centre_in & (volume_fraction >= t.inside_fraction) & (volume[:, None] <= volume[None])
+    # spans[i, j]: along some axis box i reaches past box j on both sides.
+    spans = np.any((lo[:, None] <= lo[None]) & (hi[:, None] >= hi[None]), axis=2)
+    inside[:, is_grip] = (centre_in & spans).T[:, is_grip]
+    inside &= ~(is_grip[:, None] & inside.T) & off_diagonal
+
+    footprint = size[:, 0] * size[:, 1]
+    footprint_fraction = inter[..., 0] * inter[..., 1] / np.minimum(footprint[:, None], footprint[None])
+    above = (
+        (footprint_fraction >= t.above_overlap)
+        & (lo[:, None, 2] >= hi[None, :, 2] - t.above_tolerance)
+        & (c[:, None, 2] > c[None, :, 2])
+        & off_diagonal
+    )
+    below = above.T
+
+    f = np.array([front[0], front[1], 0.0])
+    f /= np.linalg.norm(f)
+    lateral = np.array([-f[1], f[0], 0.0])
+    mid, half = (lo + hi) / 2.0, size / 2.0
+    along, along_half = mid @ f, half @ np.abs(f)
+    across, across_half = mid @ lateral, half @ np.abs(lateral)
+    lateral_overlap = np.minimum(across[:, None] + across_half[:, None], across[None] + across_half[None]) - (
+        np.maximum(across[:, None] - across_half[:, None], across[None] - across_half[None])
+    )
+    narrower = 2.0 * np.minimum(across_half[:, None], across_half[None])
+    gap = (along[:, None] - along_half[:, None]) - (along[None] + along_half[None])
+    stacked = above | below | inside | inside.T
+    in_front = (
+        ((c[:, None] - c[None]) @ f >= t.front_min_offset)
+        & (lateral_overlap >= t.front_lateral_overlap * narrower)
+        & (gap <= t.front_max_gap)
+        & ~stacked
+        & off_diagonal
+    )
+
+    relations: set[SpatialRelation] = set()
+    for relation, matrix in (
+        (Relation.INSIDE, inside),
+        (Relation.ABOVE, above),
+        (Relation.BELOW, below),
+        (Relation.IN_FRONT_OF, in_front),
+    ):
+        for i, j in zip(*np.nonzero(matrix), strict=True):
+            relations.add(SpatialRelation(names[i], relation, names[j]))
+    return frozenset(relations)
+
+
+class Perception:
+    """The environment-information layer over one PyBullet scene (paper §III-A.2).
+
+    Args:
+        scene: names of bodies, links, container joints and grippers.
+        config: mode, noise, cameras and rule constants.
+    """
+
+    def __init__(self, scene: SceneDescription, config: PerceptionConfig | None = None) -> None:
+        self.scene = scene
+        self.config = config or PerceptionConfig()
+        self._client = scene.client
+        self._owner = self._link_owners()
+        self._objects = [b.name for b in scene.bodies if b.kind in _BOX_KINDS]
+        self._object_links = {
+            name: [key for key, owner in self._owner.items() if owner == name] for name in self._objects
+        }
+        # Segmentation value (body + ((link + 1) << 24)) of every link of a boxed object, sorted, and the
+        # index into self._objects of its owner.
+        codes = {
+            body + ((link + 1) << 24): i
+            for i, name in enumerate(self._objects)
+            for body, link in self._object_links[name]
+        }
+        self._codes = np.array(sorted(codes), dtype=np.int64)
+        self._code_owner = np.array([codes[k] for k in sorted(codes)], dtype=np.int64)
+        jointed = {c.name for c in scene.containers}
+        self._vessels = [b.name for b in scene.bodies if b.kind == "container" and b.name not in jointed]
+
+    # ----------------------------------------------------------------------------------------- public
+    def observe(self, rng: np.random.Generator | int | None = None) -> EnvironmentInfo:
+        """Acquire the environment information of the current simulation state.
+
+        Args:
+            rng: generator or seed of the box noise; equal seeds give equal observations.
+
+        Contacts and normal forces are those of the last ``stepSimulation``.
+        """
+        cfg = self.config
+        rng = np.random.default_rng(rng)
+        start = time.perf_counter()
+        needs_frames = cfg.mode == "point_cloud" or cfg.check_visibility
+        frames = [render(self._client, cam) for cam in cfg.cameras] if needs_frames else []
+        rendered = time.perf_counter()
+
+        if cfg.mode == "point_cloud":
+            boxes = self.point_cloud_boxes(frames)
+        else:
+            visible = self.visible_objects(frames) if cfg.check_visibility else self._objects
+            boxes = {name: self.ground_truth_box(name) for name in visible}
+        if cfg.noise_sigma > 0:
+            boxes = {name: _add_noise(box, cfg.noise_sigma, rng) for name, box in boxes.items()}
+        for gripper in self.scene.grippers:
+            boxes[gripper.name] = self.gripper_box(gripper)
+        boxed = time.perf_counter()
+
+        points = self._contact_points()
+        predicates: set[Predicate] = set(
+            spatial_relations(boxes, cfg.thresholds, cfg.front, [g.name for g in self.scene.grippers])
+        )
+        predicates.update(self._gripper_states(points))
+        predicates.update(self._container_states())
+        contacts = _merge_contacts(points)
+        end = time.perf_counter()
+        timing = Timing(rendered - start, boxed - rendered, end - boxed, end - start)
+        return EnvironmentInfo(boxes, frozenset(predicates), contacts, timing)
+
+    def ground_truth_box(self, name: str) -> ObjectBox:
+        """PyBullet's AABB of a named object (union over the links it owns); centre = box centre."""
+        return self._union_box(name, self._object_links[name])
+
+    def gripper_box(self, gripper: GripperSpec) -> ObjectBox:
+        """The gripper's box: PyBullet's AABB of its two finger links; its centre is the end-effector link's
+        position (the grasp point between the pads), not the box centre."""
+        fingers = self._union_box(gripper.name, [(gripper.body_id, link) for link in gripper.finger_links])
+        ee = p.getLinkState(gripper.body_id, gripper.ee_link, physicsClientId=self._client)[4]
+        return ObjectBox(gripper.name, np.array(ee), fingers.lower, fingers.upper)
+
+    def render(self) -> list[RGBDFrame]:
+        """One frame from every configured camera."""
+        return [render(self._client, cam) for cam in self.config.cameras]
+
+    def object_points(self, frames: Iterable[RGBDFrame]) -> dict[str, np.ndarray]:
+        """Semantic point cloud: world-frame points (n, 3) in metres of each object seen in the frames."""
+        labels, points = self._labelled_points(frames)
+        return {name: points[labels == i] for i, name in enumerate(self._objects) if np.any(labels == i)}
+
+    def visible_objects(self, frames: Iterable[RGBDFrame]) -> list[str]:
+        """Objects seen in at least ``min_visible_pixels`` pixels over all frames, in scene order."""
+        counts = np.zeros(len(self._objects), dtype=np.int64)
+        for frame in frames:
+            labels = self._labels(frame)
+            counts += np.bincount(labels[labels >= 0], minlength=len(self._objects))
+        return [
+            name for name, n in zip(self._objects, counts, strict=True) if n >= self.config.min_visible_pixels
+        ]
+
+    def point_cloud_boxes(self, frames: Iterable[RGBDFrame]) -> dict[str, ObjectBox]:
+        """Boxes of the merged point clouds of all frames, for objects with ``>= min_visible_pixels`` points.
+
+        The box is the min/max of the points (visible surfaces only, so a face no camera sees is
+        underestimated); the centre is the box centre.
+        """
+        labels, points = self._labelled_points(frames)
+        if labels.size == 0:
+            return {}
+        order = np.argsort(labels, kind="stable")
+        labels, points = labels[order], points[order]
+        starts = np.flatnonzero(np.r_[True, labels[1:] != labels[:-1]])
+        counts = np.diff(np.r_[starts, labels.size])
+        lower = np.minimum.reduceat(points, starts, axis=0)
+        upper = np.maximum.reduceat(points, starts, axis=0)
+        return {
+            self._objects[labels[s]]: ObjectBox(self._objects[labels[s]], (lo + up) / 2.0, lo, up)
+            for s, n, lo, up in zip(starts, counts, lower, upper, strict=True)
+            if n >= self.config.min_visible_pixels
+        }
+
+    # ---------------------------------------------------------------------------------------- helpers
+    def _link_owners(self) -> dict[tuple[int, int], str]:
+        """Name owning each (body, link): named links, their unnamed descendants, and all links of arms."""
+        named: dict[tuple[int, int], str] = {(b.body_id, b.link_index): b.name for b in self.scene.bodies}
+        owners: dict[tuple[int, int], str] = {}
+        for body in {b.body_id for b in self.scene.bodies}:
+            parents = {
+                j: p.getJointInfo(body, j, physicsClientId=self._client)[16]
+                for j in range(p.getNumJoints(body, physicsClientId=self._client))
+            }
+            for link in (-1, *parents):
+                ancestor = link
+                while (body, ancestor) not in named and ancestor != -1:
+                    ancestor = parents[ancestor]
+                if (body, ancestor) in named:
+                    owners[(body, link)] = named[(body, ancestor)]
+        for gripper in self.scene.grippers:
+            for link in range(-1, p.getNumJoints(gripper.body_id, physicsClientId=self._client)):
+                owners[(gripper.body_id, link)] = gripper.name
+        return owners
+
+    def _union_box(self, name: str, links: Iterable[tuple[int, int]]) -> ObjectBox:
+        aabbs = np.array([p.getAABB(body, link, physicsClientId=self._client) for body, link in links])
+        lower, upper = aabbs[:, 0].min(axis=0), aabbs[:, 1].max(axis=0)
+        return ObjectBox(name, (lower + upper) / 2.0, lower, upper)
+
+    def _labels(self, frame: RGBDFrame) -> np.ndarray:
+        """(H, W) index into the boxed objects of each pixel's owner; -1 for anything else."""
+        code = frame.body.astype(np.int64) + ((frame.link.astype(np.int64) + 1) << 24)
+        if self._codes.size == 0:
+            return np.full(code.shape, -1, dtype=np.int64)
+        pos = np.clip(np.searchsorted(self._codes, code), 0, self._codes.size - 1)
+        hit = (self._codes[pos] == code) & (frame.body >= 0)
+        return np.where(hit, self._code_owner[pos], -1)
+
+    def _labelled_points(self, frames: Iterable[RGBDFrame]) -> tuple[np.ndarray, np.ndarray]:
+        """Owner indices (n,) and world points (n, 3) of all object pixels of all frames."""
+        labels, points = [np.empty(0, dtype=np.int64)], [np.empty((0, 3))]
+        for frame in frames:
+            frame_labels = self._labels(frame)
+            mask = frame_labels >= 0
+            labels.append(frame_labels[mask])
+            points.append(frame.world_points(mask))
+        return np.concatenate(labels), np.concatenate(points)
+
+    def _contact_points(self) -> _ContactPoints:
+        raw = p.getContactPoints(physicsClientId=self._client)
+        pts = _ContactPoints.from_pybullet(raw, self._owner)
+        return pts.select(pts.distance <= self.config.thresholds.contact_distance)
+
+    def _gripper_states(self, points: _ContactPoints) -> list[GripperState]:
+        """``gripper grasping X`` when X touches both finger links with opposing normals, else not grasping.
+
+        Among several such objects the one pressed hardest is grasped.
+        """
+        states = []
+        for gripper in self.scene.grippers:
+            # normals[k][X]: mean unit normal (from X towards finger k) and force of X's contacts on finger k.
+            per_finger: list[dict[str, tuple[np.ndarray, float]]] = []
+            for finger in gripper.finger_links:
+                on_a = (points.body_a == gripper.body_id) & (points.link_a == finger)
+                on_b = (points.body_b == gripper.body_id) & (points.link_b == finger)
+                other = np.where(on_a, points.name_b, points.name_a)
+                normal = np.where(on_a[:, None], points.normal, -points.normal)
+                touched: dict[str, tuple[np.ndarray, float]] = {}
+                for name in set(other[on_a | on_b]) - {gripper.name}:
+                    sel = (on_a | on_b) & (other == name)
+                    touched[name] = (normal[sel].mean(axis=0), float(points.force[sel].sum()))
+                per_finger.append(touched)
+            grasped = [
+                (per_finger[0][name][1] + per_finger[1][name][1], name)
+                for name in per_finger[0].keys() & per_finger[1].keys()
+                if _unit(per_finger[0][name][0]) @ _unit(per_finger[1][name][0])
+                <= -self.config.thresholds.grasp_opposition
+            ]
+            states.append(GripperState(max(grasped)[1] if grasped else None, gripper.name))
+        return states
+
+    def _container_states(self) -> list[ContainerState]:
+        """Open/closed from each container joint's position; open vessels are always open."""
+        states = [ContainerState(name, True) for name in self._vessels]
+        for joint in self.scene.containers:
+            q = p.getJointState(joint.body_id, joint.joint_index, physicsClientId=self._client)[0]
+            fraction = (q - joint.closed_position) / (joint.open_position - joint.closed_position)
+            states.append(ContainerState(joint.name, bool(fraction >= joint.open_fraction)))
+        return states
+
+
+@dataclass(frozen=True, eq=False)
+class _ContactPoints:
+    """PyBullet contact points between named bodies, as arrays of length n (positions in metres)."""
+
+    body_a: np.ndarray
+    body_b: np.ndarray
+    link_a: np.ndarray
+    link_b: np.ndarray
+    name_a: np.ndarray
+    name_b: np.ndarray
+    position: np.ndarray  # (n, 3) midpoint of the points on A and B
+    normal: np.ndarray  # (n, 3) unit normal on B, pointing towards A
+    distance: np.ndarray
+    force: np.ndarray
+
+    @classmethod
+    def from_pybullet(cls, raw: Iterable[tuple], owner: Mapping[tuple[int, int], str]) -> _ContactPoints:
+        rows = []
+        for pt in raw:
+            a, b = owner.get((pt[1], pt[3])), owner.get((pt[2], pt[4]))
+            if a is not None and b is not None and a != b:
+                rows.append((pt, a, b))
+        pts = [r[0] for r in rows]
+        return cls(
+            body_a=np.array([pt[1] for pt in pts], dtype=np.int64),
+            body_b=np.array([pt[2] for pt in pts], dtype=np.int64),
+            link_a=np.array([pt[3] for pt in pts], dtype=np.int64),
+            link_b=np.array([pt[4] for pt in pts], dtype=np.int64),
+            name_a=np.array([r[1] for r in rows], dtype=object),
+            name_b=np.array([r[2] for r in rows], dtype=object),
+            position=(np.array([pt[5] for pt in pts]) + np.array([pt[6] for pt in pts])).reshape(-1, 3) / 2.0,
+            normal=np.array([pt[7] for pt in pts], dtype=float).reshape(-1, 3),
+            distance=np.array([pt[8] for pt in pts], dtype=float),
+            force=np.array([pt[9] for pt in pts], dtype=float),
+        )
+
+    def select(self, mask: np.ndarray) -> _ContactPoints:
+        return _ContactPoints(**{k: v[mask] for k, v in vars(self).items()})
+
+
+def _merge_contacts(points: _ContactPoints) -> list[Contact]:
+    """One :class:`Contact` per touching pair of names, sorted by names."""
+    pairs = [tuple(sorted(pair)) for pair in zip(points.name_a, points.name_b, strict=True)]
+    contacts = []
+    for a, b in sorted(set(pairs)):
+        sel = np.array([pair == (a, b) for pair in pairs])
+        force = points.force[sel]
+        weights = force if force.sum() > 0 else np.ones_like(force)
+        position = weights @ points.position[sel] / weights.sum()
+        contacts.append(Contact(a, b, position, float(force.sum())))
+    return contacts
+
+
+def _add_noise(box: ObjectBox, sigma: float, rng: np.random.Generator) -> ObjectBox:
+    """Independent Gaussian noise of ``sigma`` metres on each coordinate of the centre and both corners."""
+    noise = rng.normal(0.0, sigma, size=(3, 3))
+    c1, c2 = box.lower + noise[1], box.upper + noise[2]
+    return ObjectBox(box.name, box.center + noise[0], np.minimum(c1, c2), np.maximum(c1, c2))
+
+
+def _unit(v: np.ndarray) -> np.ndarray:
+    return v / max(float(np.linalg.norm(v)), _EPS)
