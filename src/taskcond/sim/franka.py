@@ -1,0 +1,150 @@
+"""The Franka Panda arm of the task suite (paper §III-E, §IV): position control, Cartesian↔joint conversion
+with PyBullet's inverse kinematics, and a parallel gripper whose fingers are coupled by a gear constraint
+(PyBullet ignores the URDF ``mimic`` tag).
+
+Units: metres, radians, newtons. Poses are in the world frame; quaternions are ``(x, y, z, w)``. The
+end-effector point is the ``panda_grasptarget`` link, about 1 cm above the fingertips, between the pads.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import pybullet as p
+import pybullet_data
+
+from taskcond.sim.description import GripperSpec
+
+ARM_JOINTS = (0, 1, 2, 3, 4, 5, 6)
+FINGER_JOINTS = (9, 10)
+EE_LINK = 11
+HAND_LINK = 8
+HOME = (0.0, -0.3, 0.0, -2.3, 0.0, 2.0, 0.785)
+"""Joint positions (rad) of the start pose: gripper pointing down in front of the robot."""
+FORWARD_SEED = (0.0, 0.3, 0.0, -2.0, 0.0, 2.3, 0.785)
+ARM_FORCES = (87.0, 87.0, 87.0, 87.0, 12.0, 12.0, 12.0)
+FINGER_FORCE = 40.0
+"""Force (N) of each finger's position motor; the grasp force on an object."""
+FINGER_OPEN = 0.04
+"""Finger joint position (m) of the open gripper; the opening between the pads is twice this."""
+
+TOP_DOWN = (1.0, 0.0, 0.0, 0.0)
+"""End-effector orientation (xyzw) pointing straight down, fingers closing along world y."""
+
+
+def top_down(yaw: float = 0.0) -> tuple[float, float, float, float]:
+    """Downward-pointing gripper rotated by ``yaw`` (rad) about world z; fingers close along the rotated y."""
+    q = p.multiplyTransforms((0, 0, 0), p.getQuaternionFromEuler((0, 0, yaw)), (0, 0, 0), TOP_DOWN)[1]
+    return (q[0], q[1], q[2], q[3])
+
+
+def forward(yaw: float = 0.0) -> tuple[float, float, float, float]:
+    """Gripper pointing horizontally along world +x rotated by ``yaw`` (rad) about z; fingers close along
+    the horizontal axis perpendicular to it (world y for ``yaw=0``)."""
+    q = p.getQuaternionFromEuler((0.0, np.pi / 2, yaw))
+    return (q[0], q[1], q[2], q[3])
+
+
+@dataclass(frozen=True)
+class EEPose:
+    """End-effector pose: ``position`` (3,) m and ``orientation`` (4,) xyzw quaternion, world frame."""
+
+    position: np.ndarray
+    orientation: np.ndarray
+
+
+class Franka:
+    """A fixed-base Panda loaded from ``pybullet_data`` at ``base_position`` in client ``client``."""
+
+    def __init__(self, client: int, base_position: tuple[float, float, float] = (0.0, 0.0, 0.0)) -> None:
+        self.client = client
+        self.body = p.loadURDF(
+            f"{pybullet_data.getDataPath()}/franka_panda/panda.urdf",
+            base_position,
+            useFixedBase=True,
+            flags=p.URDF_USE_INERTIA_FROM_FILE,
+            physicsClientId=client,
+        )
+        info = [p.getJointInfo(self.body, j, physicsClientId=client) for j in ARM_JOINTS]
+        self.lower = np.array([i[8] for i in info])
+        self.upper = np.array([i[9] for i in info])
+        gear = p.createConstraint(
+            self.body, FINGER_JOINTS[0], self.body, FINGER_JOINTS[1], p.JOINT_GEAR, (1, 0, 0), (0, 0, 0),
+            (0, 0, 0), physicsClientId=client,
+        )
+        p.changeConstraint(gear, gearRatio=-1, erp=0.1, maxForce=50, physicsClientId=client)
+        for link in FINGER_JOINTS:
+            p.changeDynamics(self.body, link, lateralFriction=1.5, spinningFriction=0.003, frictionAnchor=True,
+                             physicsClientId=client)
+        self._ik_bias = np.array(p.getDynamicsInfo(self.body, -1, physicsClientId=client)[3])
+        self.gripper_closed = False
+        self.reset(HOME)
+
+    @property
+    def spec(self) -> GripperSpec:
+        return GripperSpec(body_id=self.body, finger_links=FINGER_JOINTS, ee_link=EE_LINK)
+
+    # ---------------------------------------------------------------------------------------- state
+    def joint_positions(self) -> np.ndarray:
+        """Arm joint positions (7,) rad."""
+        states = p.getJointStates(self.body, ARM_JOINTS, physicsClientId=self.client)
+        return np.array([s[0] for s in states])
+
+    def finger_width(self) -> float:
+        """Opening between the finger pads (m)."""
+        states = p.getJointStates(self.body, FINGER_JOINTS, physicsClientId=self.client)
+        return float(states[0][0] + states[1][0])
+
+    def ee_pose(self) -> EEPose:
+        state = p.getLinkState(self.body, EE_LINK, computeForwardKinematics=True, physicsClientId=self.client)
+        return EEPose(np.array(state[4]), np.array(state[5]))
+
+    def reset(self, q: tuple[float, ...] | np.ndarray, finger: float = FINGER_OPEN) -> None:
+        """Set the arm to ``q`` (7,) rad and the fingers to ``finger`` m at rest (episode reset only) and
+        hold it with the motors."""
+        for j, v in zip(ARM_JOINTS, q, strict=True):
+            p.resetJointState(self.body, j, float(v), physicsClientId=self.client)
+        for j in FINGER_JOINTS:
+            p.resetJointState(self.body, j, finger, physicsClientId=self.client)
+        self.command(np.asarray(q, dtype=float), closed=finger < FINGER_OPEN / 2)
+
+    # ------------------------------------------------------------------------------------- control
+    def ik(self, position: np.ndarray, orientation: np.ndarray, seed: np.ndarray | None = None) -> np.ndarray:
+        """Joint positions (7,) rad putting the end effector at ``position`` (3,) m with ``orientation``
+        (4,) xyzw, world frame; plain damped least squares IK (100 iterations) started from ``seed`` (default
+        the current joints), clipped to the joint limits. PyBullet's IK measures targets from the base's
+        centre of mass, not its link frame, so the target is shifted by that offset."""
+        seed = self.joint_positions() if seed is None else np.asarray(seed, dtype=float)
+        full = [*seed.tolist(), 0.0, 0.0]
+        q = p.calculateInverseKinematics(
+            self.body, EE_LINK, [float(x) for x in np.asarray(position) - self._ik_bias], [float(x) for x in orientation],
+            currentPositions=full, maxNumIterations=100, residualThreshold=1e-5,
+            physicsClientId=self.client,
+        )
+        return np.clip(np.array(q[:7]), self.lower, self.upper)
+
+    def fk(self, q: np.ndarray) -> EEPose:
+        """End-effector pose for joints ``q`` (7,), computed by resetting the joints and restoring them with
+        their velocities (no physics step in between)."""
+        states = p.getJointStates(self.body, ARM_JOINTS, physicsClientId=self.client)
+        for j, v in zip(ARM_JOINTS, q, strict=True):
+            p.resetJointState(self.body, j, float(v), physicsClientId=self.client)
+        pose = self.ee_pose()
+        for j, s in zip(ARM_JOINTS, states, strict=True):
+            p.resetJointState(self.body, j, s[0], s[1], physicsClientId=self.client)
+        return pose
+
+    def command(self, q: np.ndarray, closed: bool) -> None:
+        """Position targets: arm joints ``q`` (7,) rad; gripper closed (pads pushed together with
+        :data:`FINGER_FORCE`) or open."""
+        p.setJointMotorControlArray(
+            self.body, ARM_JOINTS, p.POSITION_CONTROL, targetPositions=q.tolist(), forces=ARM_FORCES,
+            positionGains=[0.1] * 7, physicsClientId=self.client,
+        )
+        self.gripper_closed = closed
+        target = 0.0 if closed else FINGER_OPEN
+        p.setJointMotorControlArray(
+            self.body, FINGER_JOINTS, p.POSITION_CONTROL, targetPositions=[target, target],
+            forces=[FINGER_FORCE, FINGER_FORCE], positionGains=[0.05, 0.05], physicsClientId=self.client,
+        )

@@ -1,0 +1,242 @@
+"""The kitchen scene of the task suite (paper §IV, Fig. 4): a counter with a Franka Panda, a cabinet with a
+top and a bottom drawer, a box with a hinged lid, a microwave, a bottle, a bowl, a mug, a toothpaste tube,
+a spatula and two distractors.
+
+World frame: z up, metres; the counter top is the plane z = 0 and the robot base sits on it at the origin,
+facing +x. The cabinet stands on the robot's left (+y), the microwave on its right (-y), the box in front
+and the free objects between the robot and the furniture (see ``reference-scene.png``).
+
+Articulated objects have PyBullet's default joint motors replaced by a weak velocity motor with target 0,
+which acts as joint friction; drawers, lid and door only move when the gripper pushes or pulls them.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+import pybullet as p
+
+from taskcond.sim.assets import (
+    AssetSpec,
+    BlockSpec,
+    BottleSpec,
+    BoxSpec,
+    CabinetSpec,
+    Interior,
+    MicrowaveSpec,
+    SpatulaSpec,
+    TableSpec,
+    VesselSpec,
+    build_asset,
+)
+from taskcond.sim.description import ContainerJoint, NamedBody, SceneDescription
+from taskcond.sim.franka import Franka
+
+PHYSICS_HZ = 240
+"""Physics steps per second."""
+
+
+@dataclass(frozen=True)
+class Placement:
+    """Nominal pose of a free object on the counter: ``xy`` (m, world) and ``yaw`` (rad about z)."""
+
+    xy: tuple[float, float]
+    yaw: float = 0.0
+
+
+@dataclass(frozen=True)
+class SceneConfig:
+    """Every parameter of the kitchen. Replace a spec (``dataclasses.replace``) for a novel object.
+
+    ``free_objects`` maps a condition name to its spec and nominal placement; ``position_noise`` (m) and
+    ``yaw_noise`` (rad) are the half-widths of the uniform perturbation applied at each seeded reset.
+    """
+
+    table: TableSpec = TableSpec()
+    cabinet: CabinetSpec = CabinetSpec()
+    cabinet_origin: tuple[float, float] = (0.62, 0.40)
+    box: BoxSpec = BoxSpec()
+    box_origin: tuple[float, float] = (0.58, -0.13)
+    microwave: MicrowaveSpec = MicrowaveSpec()
+    microwave_origin: tuple[float, float] = (0.55, -0.56)
+    free_objects: dict[str, tuple[AssetSpec, Placement]] = field(
+        default_factory=lambda: {
+            "bottle": (BottleSpec(), Placement((0.38, 0.04))),
+            "bowl": (VesselSpec(), Placement((0.42, 0.17))),
+            "mug": (
+                VesselSpec(outer_radius=0.035, height=0.09, handle=True, mass=0.2, rgba=(0.8, 0.25, 0.2, 1.0)),
+                Placement((0.34, -0.26)),
+            ),
+            "toothpaste": (BlockSpec(), Placement((0.30, 0.11))),
+            "spatula": (SpatulaSpec(), Placement((0.24, -0.07))),
+            "cube": (BlockSpec((0.04, 0.04, 0.04), 0.1, (0.85, 0.15, 0.15, 1.0)), Placement((0.22, 0.32))),
+            "can": (
+                BottleSpec(radius=0.03, height=0.09, neck_radius=0.028, neck_height=0.01, mass=0.2,
+                           rgba=(0.2, 0.3, 0.8, 1.0)),
+                Placement((0.16, -0.36)),
+            ),
+        }
+    )
+    position_noise: float = 0.02
+    yaw_noise: float = 0.25
+
+
+DRAWERS = ("bottom drawer", "top drawer")
+ARTICULATED = ("top drawer", "bottom drawer", "box", "microwave")
+"""Container names with a joint."""
+
+
+@dataclass(frozen=True)
+class WorldInterior:
+    """A container's interior in the world frame: ``center`` (3,) m, ``half_extents`` (3,) m along the axes
+    of ``rotation`` (3, 3); ``round`` means a vertical cylinder of radius ``half_extents[0]``."""
+
+    center: np.ndarray
+    half_extents: np.ndarray
+    rotation: np.ndarray
+    round: bool
+
+    def contains(self, point: np.ndarray, margin: float = 0.0) -> bool:
+        """Whether ``point`` (3,) world lies inside, grown by ``margin`` m on every side."""
+        local = self.rotation.T @ (np.asarray(point) - self.center)
+        if self.round and math.hypot(local[0], local[1]) > self.half_extents[0] + margin:
+            return False
+        return bool(np.all(np.abs(local) <= self.half_extents + margin))
+
+
+class KitchenScene:
+    """The kitchen in one PyBullet client: builds every body and keeps their ids and interiors.
+
+    Args:
+        config: layout and object parameters.
+        gui: open PyBullet's GUI instead of the headless ``DIRECT`` mode.
+    """
+
+    def __init__(self, config: SceneConfig | None = None, gui: bool = False) -> None:
+        self.config = config or SceneConfig()
+        self.client = p.connect(p.GUI if gui else p.DIRECT)
+        p.setGravity(0, 0, -9.81, physicsClientId=self.client)
+        p.setTimeStep(1.0 / PHYSICS_HZ, physicsClientId=self.client)
+        p.setPhysicsEngineParameter(numSolverIterations=50, physicsClientId=self.client)
+        if gui:
+            p.configureDebugVisualizer(p.COV_ENABLE_GUI, 0, physicsClientId=self.client)
+        cfg = self.config
+        self.bodies: dict[str, int] = {}
+        self.links: dict[str, int] = {}
+        self.interiors: dict[str, Interior] = {}
+        self.joints: dict[str, ContainerJoint] = {}
+        self.specs: dict[str, AssetSpec] = {}
+
+        self._load("table", cfg.table, (*cfg.table.center, 0.0), fixed=True)
+        self._load("cabinet", cfg.cabinet, (*cfg.cabinet_origin, 0.0), fixed=True)
+        self._load("box", cfg.box, (*cfg.box_origin, 0.0), fixed=True)
+        self._load("microwave", cfg.microwave, (*cfg.microwave_origin, 0.0), fixed=True)
+        cab = self.bodies["cabinet"]
+        for name, link in (("bottom drawer", 0), ("top drawer", 1)):
+            self.bodies[name], self.links[name] = cab, link
+            self.joints[name] = ContainerJoint(name, cab, link, 0.0, cfg.cabinet.travel, 0.5)
+        self.links["box"] = -1
+        self.joints["box"] = ContainerJoint("box", self.bodies["box"], 0, 0.0, cfg.box.open_angle, 0.5)
+        self.links["microwave"] = -1
+        self.joints["microwave"] = ContainerJoint("microwave", self.bodies["microwave"], 0, 0.0,
+                                                  cfg.microwave.open_angle, 0.5)
+        friction = {"bottom drawer": 3.0, "top drawer": 3.0, "box": 0.01, "microwave": 0.3}
+        for name, joint in self.joints.items():
+            p.setJointMotorControl2(joint.body_id, joint.joint_index, p.VELOCITY_CONTROL, targetVelocity=0,
+                                    force=friction[name], physicsClientId=self.client)
+            p.changeDynamics(joint.body_id, joint.joint_index, lateralFriction=0.6, physicsClientId=self.client)
+
+        for name, (spec, place) in cfg.free_objects.items():
+            self._load(name, spec, (*place.xy, 0.0), fixed=False)
+            self.links[name] = -1
+            p.changeDynamics(self.bodies[name], -1, lateralFriction=1.0, spinningFriction=0.002,
+                             rollingFriction=0.0001, restitution=0.0,
+                             activationState=p.ACTIVATION_STATE_ENABLE_SLEEPING, physicsClientId=self.client)
+        self.robot = Franka(self.client)
+        self.free_objects = tuple(cfg.free_objects)
+
+    def _load(self, name: str, spec: AssetSpec, position: tuple[float, float, float], fixed: bool) -> None:
+        asset = build_asset(name.replace(" ", "_"), spec)
+        body = p.loadURDF(str(asset.path), position, useFixedBase=fixed, physicsClientId=self.client)
+        self.bodies[name] = body
+        self.specs[name] = spec
+        for key, interior in asset.interiors.items():
+            self.interiors[key.replace("_", " ")] = interior
+
+    # ----------------------------------------------------------------------------------- description
+    def description(self) -> SceneDescription:
+        """The :class:`SceneDescription` read by the environment-information layer (§III-A.2)."""
+        kinds = {"table": "furniture", "cabinet": "furniture", "box": "container", "microwave": "container",
+                 "top drawer": "container", "bottom drawer": "container", "bowl": "container",
+                 "mug": "container"}
+        bodies = [NamedBody(n, self.bodies[n], self.links.get(n, -1), kinds.get(n, "object"))  # type: ignore[arg-type]
+                  for n in self.bodies]
+        bodies.append(NamedBody("robot", self.robot.body, -1, "robot"))
+        return SceneDescription(self.client, bodies, list(self.joints.values()), [self.robot.spec])
+
+    # ----------------------------------------------------------------------------------------- state
+    def pose(self, name: str) -> tuple[np.ndarray, np.ndarray]:
+        """World pose of a named body or link frame: position (3,) m and quaternion (4,) xyzw."""
+        body, link = self.bodies[name], self.links.get(name, -1)
+        if link < 0:
+            pos, orn = p.getBasePositionAndOrientation(body, physicsClientId=self.client)
+            # base position is the centre of mass; convert to the URDF link frame
+            local = p.getDynamicsInfo(body, -1, physicsClientId=self.client)[3]
+            inv = p.invertTransform(local, (0, 0, 0, 1))
+            pos, orn = p.multiplyTransforms(pos, orn, inv[0], inv[1])
+        else:
+            state = p.getLinkState(body, link, computeForwardKinematics=True, physicsClientId=self.client)
+            pos, orn = state[4], state[5]
+        return np.array(pos), np.array(orn)
+
+    def aabb(self, name: str) -> tuple[np.ndarray, np.ndarray]:
+        """World axis-aligned bounding box (min (3,), max (3,)) of a named body or link."""
+        lo, hi = p.getAABB(self.bodies[name], self.links.get(name, -1), physicsClientId=self.client)
+        return np.array(lo), np.array(hi)
+
+    def joint_position(self, container: str) -> float:
+        """Joint position of an articulated container (m or rad)."""
+        j = self.joints[container]
+        return float(p.getJointState(j.body_id, j.joint_index, physicsClientId=self.client)[0])
+
+    def open_fraction(self, container: str) -> float:
+        """How far open a container is: 0 closed, 1 fully open."""
+        j = self.joints[container]
+        return (self.joint_position(container) - j.closed_position) / (j.open_position - j.closed_position)
+
+    def interior(self, container: str) -> WorldInterior:
+        """A container's interior volume in the world frame, following its link (drawer, vessel)."""
+        it = self.interiors[container]
+        body = self.bodies[container]
+        if it.link in ("base", "carcass", "shell"):
+            pos, orn = self.pose(container)
+        else:
+            link = self.links[container]
+            state = p.getLinkState(body, link, computeForwardKinematics=True, physicsClientId=self.client)
+            pos, orn = state[4], state[5]
+        rot = np.array(p.getMatrixFromQuaternion(orn)).reshape(3, 3)
+        return WorldInterior(np.asarray(pos) + rot @ np.array(it.center), np.array(it.half_extents), rot, it.round)
+
+    def set_joint(self, container: str, fraction: float) -> None:
+        """Put a container at ``fraction`` of its range, at rest (episode reset only)."""
+        j = self.joints[container]
+        q = j.closed_position + fraction * (j.open_position - j.closed_position)
+        p.resetJointState(j.body_id, j.joint_index, q, 0.0, physicsClientId=self.client)
+
+    def place(self, name: str, xy: tuple[float, float] | np.ndarray, yaw: float, z: float = 0.0) -> None:
+        """Put a free object's bottom-centre frame at ``(x, y, z)`` with ``yaw``, at rest (reset only)."""
+        body = self.bodies[name]
+        local = p.getDynamicsInfo(body, -1, physicsClientId=self.client)[3]
+        orn = p.getQuaternionFromEuler((0, 0, yaw))
+        pos, _ = p.multiplyTransforms((float(xy[0]), float(xy[1]), z + 0.0005), orn, local, (0, 0, 0, 1))
+        p.resetBasePositionAndOrientation(body, pos, orn, physicsClientId=self.client)
+        p.resetBaseVelocity(body, (0, 0, 0), (0, 0, 0), physicsClientId=self.client)
+
+    def yaw(self, name: str) -> float:
+        return float(p.getEulerFromQuaternion(self.pose(name)[1])[2])
+
+    def close(self) -> None:
+        if p.isConnected(self.client):
+            p.disconnect(self.client)

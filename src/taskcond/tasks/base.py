@@ -1,0 +1,99 @@
+"""Task definitions of the suite (paper §IV, Table I): what a task is, how it sets up its initial state, how
+its success is checked and how its scripted oracle plans.
+
+A :class:`Task` owns no simulator; :class:`taskcond.tasks.env.KitchenEnv` calls it. Primitive tasks live
+in one module per primitive family, long-horizon tasks in :mod:`taskcond.tasks.long_horizon`.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Literal
+
+import numpy as np
+
+from taskcond.conditions import Predicate
+from taskcond.primitives import PRIMITIVES
+from taskcond.tasks.trajectory import Trajectory, Waypoint
+
+if TYPE_CHECKING:
+    from taskcond.tasks.env import KitchenEnv
+
+
+@dataclass(frozen=True)
+class TaskInfo:
+    """A registry entry.
+
+    Attributes:
+        id: registry id, e.g. ``"grasp-bottle"``, ``"move_into-bottle-box"``, ``"LHT1"``.
+        kind: ``"primitive"`` or ``"long-horizon"``.
+        primitive: the primitive id of :data:`taskcond.primitives.PRIMITIVES` for a primitive task; for a
+            long-horizon task the primitive task names in order (``("grasp bottle", ...)``).
+        objects: condition names of the objects the task acts on, in task-name order.
+        task_name: canonical task name (``"move bottle into box"``) or the long-horizon description.
+    """
+
+    id: str
+    kind: Literal["primitive", "long-horizon"]
+    primitive: str | tuple[str, ...]
+    objects: tuple[str, ...]
+    task_name: str
+
+
+class Task:
+    """Base class of every task: an initial state, post-conditions and an oracle.
+
+    Subclasses set :attr:`info`, and override :meth:`setup`, :meth:`post_conditions`, :meth:`plans` and,
+    for checks the vocabulary cannot express, :meth:`extra_success`.
+    """
+
+    info: TaskInfo
+    max_steps: int = 400
+    """Episode length in control steps before truncation."""
+
+    def setup(self, env: KitchenEnv, rng: np.random.Generator) -> None:
+        """Bring the freshly randomized scene into the task's initial state (reset time only)."""
+
+    def post_conditions(self) -> tuple[Predicate, ...]:
+        """Conditions that mark success, in the vocabulary of :mod:`taskcond.conditions`."""
+        return ()
+
+    def extra_success(self, env: KitchenEnv) -> bool:
+        """Success criteria outside the vocabulary (lifted, tilted, at the target)."""
+        return True
+
+    def success(self, env: KitchenEnv) -> bool:
+        """Ground-truth success: every post-condition holds and :meth:`extra_success`."""
+        return all(env.truth.holds(c) for c in self.post_conditions()) and self.extra_success(env)
+
+    def plans(self, env: KitchenEnv) -> Iterator[Trajectory]:
+        """The scripted oracle: end-effector trajectories to execute one after the other, each planned
+        from the state the previous one left (a primitive task yields one)."""
+        raise NotImplementedError
+
+
+class PrimitiveTask(Task):
+    """A primitive task on given objects; subclasses set :attr:`primitive_id` and :meth:`waypoints`."""
+
+    primitive_id: str = ""
+
+    def __init__(self, *objects: str) -> None:
+        prim = PRIMITIVES[self.primitive_id]
+        self.objects = objects
+        self.info = TaskInfo(
+            id="-".join((self.primitive_id, *(o.replace(" ", "_") for o in objects))),
+            kind="primitive",
+            primitive=self.primitive_id,
+            objects=objects,
+            task_name=prim.task_name(*objects),
+        )
+
+    def waypoints(self, env: KitchenEnv) -> list[Waypoint]:
+        """The oracle's waypoints, planned from the current state."""
+        raise NotImplementedError
+
+    def plans(self, env: KitchenEnv) -> Iterator[Trajectory]:
+        from taskcond.tasks.skills import plan
+
+        yield plan(env, self.waypoints(env))

@@ -1,0 +1,42 @@
+"""PT4 Close (paper Table I): close an open drawer (push its handle), the box (push the lid from behind
+until it falls shut) or the microwave (swing the door back by its handle).
+
+Initial state: the container open (drawers and box fully, the microwave door at 1.1 rad). Success:
+``A closed`` (joint within 8 % of its range from closed).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from taskcond.conditions import ContainerState, Predicate
+from taskcond.tasks.base import PrimitiveTask
+from taskcond.tasks.env import KitchenEnv
+from taskcond.tasks.skills import door_motion, drawer_motion, lid_close
+from taskcond.tasks.trajectory import Waypoint
+
+OBJECTS = ("top drawer", "bottom drawer", "box", "microwave")
+DOOR_START = 1.1
+"""Microwave door angle (rad) at the start of ``close microwave``."""
+
+
+class Close(PrimitiveTask):
+    primitive_id = "close"
+    max_steps = 400
+
+    def setup(self, env: KitchenEnv, rng: np.random.Generator) -> None:
+        target = self.objects[0]
+        joint = env.scene.joints[target]
+        fraction = DOOR_START / joint.open_position if target == "microwave" else 1.0
+        env.scene.set_joint(target, fraction)
+
+    def post_conditions(self) -> tuple[Predicate, ...]:
+        return (ContainerState(self.objects[0], False),)
+
+    def waypoints(self, env: KitchenEnv) -> list[Waypoint]:
+        target = self.objects[0]
+        if target == "box":
+            return lid_close(env)
+        if target == "microwave":
+            return door_motion(env, -0.05)
+        return drawer_motion(env, target, -0.05)

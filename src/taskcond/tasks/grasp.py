@@ -1,0 +1,35 @@
+"""PT1 Grasp (paper Table I): pick a free object up from the counter.
+
+Success: ``gripper grasping A`` and A lifted at least :data:`LIFT` m off the counter.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from taskcond.conditions import GripperState, Predicate
+from taskcond.tasks.base import PrimitiveTask
+from taskcond.tasks.env import KitchenEnv
+from taskcond.tasks.skills import pick
+from taskcond.tasks.trajectory import Waypoint
+
+LIFT = 0.03
+"""Metres the grasped object's lowest point must be above the counter."""
+OBJECTS = ("bottle", "bowl", "mug", "toothpaste", "spatula")
+
+
+class Grasp(PrimitiveTask):
+    primitive_id = "grasp"
+    max_steps = 300
+
+    def post_conditions(self) -> tuple[Predicate, ...]:
+        return (GripperState(self.objects[0]),)
+
+    def extra_success(self, env: KitchenEnv) -> bool:
+        return bool(env.scene.aabb(self.objects[0])[0][2] >= LIFT)
+
+    def setup(self, env: KitchenEnv, rng: np.random.Generator) -> None:
+        """The arm starts at home with the gripper open."""
+
+    def waypoints(self, env: KitchenEnv) -> list[Waypoint]:
+        return pick(env, self.objects[0])

@@ -1,0 +1,132 @@
+"""Ground-truth evaluation of the condition vocabulary (paper §III-A.1) on the simulator state.
+
+Success checks of the task suite read PyBullet directly (positions, joint positions, contacts), never the
+perception layer, and are written as predicates of :mod:`taskcond.conditions` where the vocabulary has one:
+
+* ``gripper grasping A``: both finger links touch A;
+* ``gripper not grasping``: neither finger touches any free object;
+* ``A open`` / ``A closed``: the container joint is past ``open_fraction`` of its range / within
+  :data:`CLOSED_FRACTION` of closed (bowls and mugs are always open);
+* ``A inside B``: A's centre of mass lies in B's interior volume (grown by :data:`INSIDE_MARGIN`);
+* ``A above B``: A's centre is over B's footprint and A's lowest point is not below B's top;
+* ``A below B``: ``B above A``;
+* ``A in front of B``: A is between the robot and B's front face (-x side), within B's width and at most
+  :data:`FRONT_DISTANCE` from it, not above B.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pybullet as p
+
+from taskcond.conditions import (
+    ContainerState,
+    GripperState,
+    Predicate,
+    Relation,
+    SpatialRelation,
+)
+from taskcond.sim.franka import FINGER_JOINTS
+from taskcond.sim.scene import KitchenScene
+
+CLOSED_FRACTION = 0.08
+"""A container is closed when its joint is within this fraction of its range from closed."""
+INSIDE_MARGIN = 0.01
+"""Metres by which a container's interior is grown for ``inside``."""
+FRONT_DISTANCE = 0.20
+"""Largest gap (m) between A and B's front face for ``A in front of B``."""
+ABOVE_TOLERANCE = 0.01
+"""Metres A's lowest point may sink below B's top for ``A above B``."""
+
+
+class GroundTruth:
+    """Predicates of the condition vocabulary evaluated on a :class:`KitchenScene`."""
+
+    def __init__(self, scene: KitchenScene) -> None:
+        self.scene = scene
+
+    def com(self, name: str) -> np.ndarray:
+        """Centre (3,) m, world: centre of mass of a free object, AABB centre of anything else."""
+        if name in self.scene.free_objects:
+            return np.array(p.getBasePositionAndOrientation(self.scene.bodies[name],
+                                                            physicsClientId=self.scene.client)[0])
+        lo, hi = self.scene.aabb(name)
+        return (lo + hi) / 2
+
+    def finger_contacts(self, name: str) -> tuple[bool, bool]:
+        """Whether the left and the right finger touch ``name``."""
+        robot, body = self.scene.robot.body, self.scene.bodies[name]
+        link = self.scene.links.get(name, -1)
+        out = []
+        for finger in FINGER_JOINTS:
+            pts = p.getContactPoints(robot, body, finger, physicsClientId=self.scene.client)
+            out.append(any(pt[4] == link or link < 0 for pt in pts))
+        return out[0], out[1]
+
+    def grasping(self, name: str) -> bool:
+        left, right = self.finger_contacts(name)
+        return left and right
+
+    def grasped(self) -> str | None:
+        """The free object held between both fingers, if any."""
+        for name in self.scene.free_objects:
+            if self.grasping(name):
+                return name
+        return None
+
+    def touching_any(self) -> bool:
+        """Whether a finger touches any free object."""
+        return any(any(self.finger_contacts(n)) for n in self.scene.free_objects)
+
+    def is_open(self, container: str) -> bool:
+        if container not in self.scene.joints:
+            return container in self.scene.interiors
+        return self.scene.open_fraction(container) >= self.scene.joints[container].open_fraction
+
+    def is_closed(self, container: str) -> bool:
+        if container not in self.scene.joints:
+            return False
+        return self.scene.open_fraction(container) <= CLOSED_FRACTION
+
+    def inside(self, a: str, b: str) -> bool:
+        if b not in self.scene.interiors:
+            return False
+        return self.scene.interior(b).contains(self.com(a), INSIDE_MARGIN)
+
+    def above(self, a: str, b: str) -> bool:
+        alo, ahi = self.scene.aabb(a)
+        blo, bhi = self.scene.aabb(b)
+        c = (alo + ahi) / 2
+        over = blo[0] <= c[0] <= bhi[0] and blo[1] <= c[1] <= bhi[1]
+        return bool(over and alo[2] >= bhi[2] - ABOVE_TOLERANCE)
+
+    def height_over(self, a: str, b: str) -> float:
+        """Gap (m) between A's lowest point and B's top."""
+        return float(self.scene.aabb(a)[0][2] - self.scene.aabb(b)[1][2])
+
+    def in_front_of(self, a: str, b: str) -> bool:
+        alo, ahi = self.scene.aabb(a)
+        blo, bhi = self.scene.aabb(b)
+        cy = (alo[1] + ahi[1]) / 2
+        gap = blo[0] - ahi[0]
+        return bool(blo[1] <= cy <= bhi[1] and -0.005 <= gap <= FRONT_DISTANCE and alo[2] < bhi[2])
+
+    def holds(self, pred: Predicate) -> bool:
+        """Whether a condition holds in the current simulator state."""
+        if isinstance(pred, GripperState):
+            return self.grasped() is None and not self.touching_any() if pred.obj is None else self.grasping(
+                pred.obj)
+        if isinstance(pred, ContainerState):
+            return self.is_open(pred.container) if pred.is_open else self.is_closed(pred.container)
+        assert isinstance(pred, SpatialRelation)
+        a, b = pred.subject, pred.reference
+        if pred.relation is Relation.INSIDE:
+            return self.inside(a, b)
+        if pred.relation is Relation.ABOVE:
+            return self.above(a, b)
+        if pred.relation is Relation.BELOW:
+            return self.above(b, a)
+        return self.in_front_of(a, b)
+
+
+__all__ = ["GroundTruth"]

@@ -1,0 +1,101 @@
+"""Long-horizon tasks of the paper's Table I: LHT1-LHT3 and the novel-object variants LHT1*, LHT2* (LHT4
+needs the cloth and is not part of the suite yet).
+
+A long-horizon task is a sequence of primitive tasks; its oracle runs each primitive's oracle in turn,
+planned from the state the previous one left. Success is checked on the final conditions.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+
+import numpy as np
+
+from taskcond.conditions import ContainerState, GripperState, Predicate, Relation, SpatialRelation
+from taskcond.tasks.base import PrimitiveTask, Task, TaskInfo
+from taskcond.tasks.close import Close
+from taskcond.tasks.env import KitchenEnv
+from taskcond.tasks.grasp import Grasp
+from taskcond.tasks.move_into import MoveInto
+from taskcond.tasks.move_on_top import MoveOnTop
+from taskcond.tasks.open import Open
+from taskcond.tasks.release import Release
+from taskcond.tasks.trajectory import Trajectory
+
+
+class LongHorizonTask(Task):
+    """A sequence of primitive tasks from an initial container state to final conditions.
+
+    Args:
+        task_id: registry id (``"LHT1"``).
+        description: the paper's wording.
+        steps: the primitive tasks in order.
+        initial_open: container name → open fraction at reset (others closed).
+        final: conditions that mark success.
+    """
+
+    def __init__(self, task_id: str, description: str, steps: tuple[PrimitiveTask, ...],
+                 initial_open: dict[str, float], final: tuple[Predicate, ...]) -> None:
+        objects: list[str] = []
+        for step in steps:
+            objects.extend(o for o in step.objects if o not in objects)
+        self.steps = steps
+        self.initial_open = initial_open
+        self.final = final
+        self.max_steps = sum(s.max_steps for s in steps)
+        self.info = TaskInfo(task_id, "long-horizon", tuple(s.info.task_name for s in steps), tuple(objects),
+                             description)
+
+    def setup(self, env: KitchenEnv, rng: np.random.Generator) -> None:
+        for name, fraction in self.initial_open.items():
+            env.scene.set_joint(name, fraction)
+
+    def post_conditions(self) -> tuple[Predicate, ...]:
+        return self.final
+
+    def plans(self, env: KitchenEnv) -> Iterator[Trajectory]:
+        for step in self.steps:
+            yield from step.plans(env)
+
+
+def _inside(a: str, b: str) -> SpatialRelation:
+    return SpatialRelation(a, Relation.INSIDE, b)
+
+
+def _put_into_closed(task_id: str, obj: str, description: str) -> LongHorizonTask:
+    return LongHorizonTask(
+        task_id, description,
+        (Grasp(obj), MoveInto(obj, "box"), Release(obj), Close("box")),
+        {"box": 1.0},
+        (_inside(obj, "box"), ContainerState("box", False), GripperState(None)),
+    )
+
+
+def _drawer_swap(task_id: str, target: str, other: str, description: str) -> LongHorizonTask:
+    return LongHorizonTask(
+        task_id, description,
+        (Close(other), Open(target), Grasp("bowl"), MoveInto("bowl", target), Release("bowl"), Close(target)),
+        {other: 1.0},
+        (_inside("bowl", target), ContainerState(target, False), ContainerState(other, False)),
+    )
+
+
+def long_horizon_tasks() -> list[LongHorizonTask]:
+    """LHT1, LHT2, LHT3, LHT1*, LHT2* (paper Table I)."""
+    return [
+        _put_into_closed("LHT1", "bottle", "Pick up a bottle, put the bottle into the box, close the box."),
+        _drawer_swap("LHT2", "bottom drawer", "top drawer",
+                     "To put the bowl into the bottom drawer of the cabinet, first close the top drawer, then "
+                     "open the bottom drawer, put the bowl into the bottom drawer and then close the drawer."),
+        LongHorizonTask(
+            "LHT3", "Hold a mug up, place it on the table, and put toothpaste into the mug.",
+            (Grasp("mug"), MoveOnTop("mug", "table"), Release("mug"), Grasp("toothpaste"),
+             MoveInto("toothpaste", "mug"), Release("toothpaste")),
+            {},
+            (SpatialRelation("mug", Relation.ABOVE, "table"), _inside("toothpaste", "mug"), GripperState(None)),
+        ),
+        _put_into_closed("LHT1*", "bowl", "Pick up a bowl, put the bowl into the box, and close the box."),
+        _drawer_swap("LHT2*", "top drawer", "bottom drawer",
+                     "To put the bowl into the upper drawer of the cabinet, first close the bottom drawer, then "
+                     "open the upper drawer, put the bowl into the upper drawer and then close the drawer."),
+    ]

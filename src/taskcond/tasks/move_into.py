@@ -1,0 +1,61 @@
+"""PT9 Move A into B (paper Table I): carry a held object over an open container and lower it in.
+
+Initial state: B open (box lid, drawer fully out), A held 5 cm above where it stood. Success: ``A inside
+B`` (A's centre of mass in B's interior).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from taskcond.conditions import Predicate, Relation, SpatialRelation
+from taskcond.sim.assets import CabinetSpec
+from taskcond.tasks.base import PrimitiveTask
+from taskcond.tasks.env import KitchenEnv
+from taskcond.tasks.skills import GRASPS, bottom_to_com, carry
+from taskcond.tasks.trajectory import Waypoint
+
+PAIRS = (
+    ("bottle", "box"),
+    ("bowl", "box"),
+    ("bowl", "top drawer"),
+    ("bowl", "bottom drawer"),
+    ("toothpaste", "mug"),
+)
+FLOOR_GAP = 0.02
+"""Height (m) of A's lowest point above B's floor where the oracle stops."""
+
+
+def into_goal(env: KitchenEnv, a: str, b: str) -> tuple[np.ndarray, float]:
+    """Goal centre of mass (3,) of A inside B and the rim height (m) to clear on the way."""
+    inner = env.scene.interior(b)
+    floor = inner.center[2] - inner.half_extents[2]
+    rim = inner.center[2] + inner.half_extents[2]
+    xy = inner.center[:2]
+    if b.endswith("drawer"):
+        spec = env.scene.specs["cabinet"]
+        assert isinstance(spec, CabinetSpec)
+        front, _ = env.scene.pose(b)
+        out = spec.travel * env.scene.open_fraction(b)
+        xy = np.array([front[0] + 0.01 + min(out, spec.depth) / 2, xy[1]])
+    goal = np.array([xy[0], xy[1], floor + FLOOR_GAP + bottom_to_com(env, a)])
+    return goal, rim
+
+
+class MoveInto(PrimitiveTask):
+    primitive_id = "move_into"
+    max_steps = 300
+
+    def setup(self, env: KitchenEnv, rng: np.random.Generator) -> None:
+        b = self.objects[1]
+        if b in env.scene.joints:
+            env.scene.set_joint(b, 1.0)
+        env.hold(self.objects[0], 0.05, GRASPS[self.objects[0]])
+
+    def post_conditions(self) -> tuple[Predicate, ...]:
+        return (SpatialRelation(self.objects[0], Relation.INSIDE, self.objects[1]),)
+
+    def waypoints(self, env: KitchenEnv) -> list[Waypoint]:
+        a, b = self.objects
+        goal, rim = into_goal(env, a, b)
+        return carry(env, a, goal, clearance=rim + 0.04)

@@ -1,0 +1,33 @@
+"""PT3 Open (paper Table I): open a drawer (pull its handle), the box (lift the lid by its lip) or the
+microwave (swing the door by its handle).
+
+Initial state: every container closed. Success: ``A open`` (joint past half of its range).
+"""
+
+from __future__ import annotations
+
+from taskcond.conditions import ContainerState, Predicate
+from taskcond.tasks.base import PrimitiveTask
+from taskcond.tasks.env import KitchenEnv
+from taskcond.tasks.skills import door_motion, drawer_motion, lid_open
+from taskcond.tasks.trajectory import Waypoint
+
+OBJECTS = ("top drawer", "bottom drawer", "box", "microwave")
+DOOR_OPEN = 1.15
+"""Angle (rad) the oracle swings the microwave door to."""
+
+
+class Open(PrimitiveTask):
+    primitive_id = "open"
+    max_steps = 400
+
+    def post_conditions(self) -> tuple[Predicate, ...]:
+        return (ContainerState(self.objects[0], True),)
+
+    def waypoints(self, env: KitchenEnv) -> list[Waypoint]:
+        target = self.objects[0]
+        if target == "box":
+            return lid_open(env)
+        if target == "microwave":
+            return door_motion(env, DOOR_OPEN)
+        return drawer_motion(env, target, 0.95)

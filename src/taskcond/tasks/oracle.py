@@ -1,0 +1,110 @@
+"""Scripted oracles (experts) of the task suite (paper §IV): run a task's oracle trajectories in its
+environment and count successes. The trajectories are the demonstrations DMPs are fitted to (§III-E).
+"""
+
+from __future__ import annotations
+
+import time
+from collections import Counter
+from dataclasses import dataclass, field
+from pathlib import Path
+
+
+from taskcond.sim.recording import VideoRecorder
+from taskcond.tasks.env import KitchenEnv
+from taskcond.tasks.registry import make
+from taskcond.tasks.trajectory import Trajectory
+
+SETTLE_STEPS = 10
+"""Control steps the last action is held after the oracle's trajectories, before success is judged."""
+VIDEO_EVERY = 2
+"""Record every n-th control step."""
+
+
+@dataclass
+class OracleReport:
+    """Outcome of :func:`run_oracle`.
+
+    Attributes:
+        task: registry id.
+        episodes, successes: counts.
+        steps_per_second: environment (control) steps per wall-clock second over all episodes.
+        failures: failure reason → count (``not_succeeded`` when the episode ran to its end without success,
+            else the environment's blow-up reason or ``truncated``).
+        trajectories: the executed oracle trajectory of each episode, concatenated (demonstrations).
+    """
+
+    task: str
+    episodes: int
+    successes: int
+    steps_per_second: float
+    failures: dict[str, int] = field(default_factory=dict)
+    trajectories: list[Trajectory] = field(default_factory=list, repr=False)
+
+    @property
+    def success_rate(self) -> float:
+        return self.successes / self.episodes if self.episodes else 0.0
+
+
+def run_episode(env: KitchenEnv, seed: int, recorder: VideoRecorder | None = None) -> tuple[bool, str | None,
+                                                                                        Trajectory, int]:
+    """Reset with ``seed`` and execute the task's oracle; returns (success, failure reason, executed
+    trajectory, control steps)."""
+    env.reset(seed=seed)
+    executed: list[Trajectory] = []
+    steps = 0
+    info: dict = {"success": env.task.success(env), "failure": None}
+    action = None
+    for traj in env.task.plans(env):
+        executed.append(traj)
+        for i in range(len(traj)):
+            action = traj.action(i)
+            _, _, terminated, _, info = env.step(action)
+            steps += 1
+            if recorder is not None and steps % VIDEO_EVERY == 0:
+                recorder.add(env.render())
+            if terminated:
+                return False, info["failure"], Trajectory.concatenate(executed), steps
+    for _ in range(SETTLE_STEPS if action is not None else 0):
+        _, _, terminated, _, info = env.step(action)
+        steps += 1
+        if terminated:
+            return False, info["failure"], Trajectory.concatenate(executed), steps
+    if info["success"]:
+        return True, None, Trajectory.concatenate(executed), steps
+    return False, "not_succeeded", Trajectory.concatenate(executed), steps
+
+
+def run_oracle(task_id: str, episodes: int = 100, seed: int = 0, video: str | Path | None = None,
+               keep_trajectories: bool = False) -> OracleReport:
+    """Run the oracle of ``task_id`` on ``episodes`` seeded episodes (seeds ``seed``, ``seed + 1``, ...).
+
+    ``video``: path (.mp4/.gif) to record the first episode to.
+    """
+    env = make(task_id)
+    failures: Counter[str] = Counter()
+    successes = total_steps = 0
+    trajectories = []
+    start = time.perf_counter()
+    try:
+        for k in range(episodes):
+            recorder = VideoRecorder(video) if video is not None and k == 0 else None
+            try:
+                ok, reason, traj, steps = run_episode(env, seed + k, recorder)
+            finally:
+                if recorder is not None:
+                    recorder.close()
+            total_steps += steps
+            successes += ok
+            if reason is not None:
+                failures[reason] += 1
+            if keep_trajectories:
+                trajectories.append(traj)
+    finally:
+        env.close()
+    elapsed = time.perf_counter() - start
+    return OracleReport(task_id, episodes, successes, total_steps / max(elapsed, 1e-9), dict(failures),
+                        trajectories)
+
+
+__all__ = ["OracleReport", "run_episode", "run_oracle"]

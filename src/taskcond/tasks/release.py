@@ -1,0 +1,34 @@
+"""PT2 Release (paper Table I): let go of a held object just above the counter.
+
+Initial state: the object is held 3 cm above where it stands. Success: ``gripper not grasping`` and the
+object resting within 2 cm of the counter.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from taskcond.conditions import GripperState, Predicate
+from taskcond.tasks.base import PrimitiveTask
+from taskcond.tasks.env import KitchenEnv
+from taskcond.tasks.skills import GRASPS, release
+from taskcond.tasks.trajectory import Waypoint
+
+OBJECTS = ("bottle", "bowl", "mug", "toothpaste", "spatula")
+
+
+class Release(PrimitiveTask):
+    primitive_id = "release"
+    max_steps = 120
+
+    def setup(self, env: KitchenEnv, rng: np.random.Generator) -> None:
+        env.hold(self.objects[0], 0.03, GRASPS[self.objects[0]])
+
+    def post_conditions(self) -> tuple[Predicate, ...]:
+        return (GripperState(None),)
+
+    def extra_success(self, env: KitchenEnv) -> bool:
+        return bool(env.scene.aabb(self.objects[0])[0][2] <= 0.02)
+
+    def waypoints(self, env: KitchenEnv) -> list[Waypoint]:
+        return release(env)

@@ -1,0 +1,239 @@
+"""Motion building blocks of the scripted oracles (paper §IV): grasp poses of the free objects and
+waypoint sequences for picking, carrying, handle pulling and lid pushing.
+
+Every function reads the current simulator state (ground truth) and returns waypoints in the world frame
+(metres, xyzw quaternions) that :func:`plan` turns into a :class:`Trajectory` starting at the current
+end-effector pose.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from taskcond.sim.assets import BoxSpec, CabinetSpec, MicrowaveSpec
+from taskcond.sim.franka import forward, top_down
+from taskcond.sim.scene import KitchenScene
+from taskcond.tasks.trajectory import Trajectory, Waypoint
+
+if TYPE_CHECKING:
+    from taskcond.tasks.env import KitchenEnv
+
+OPEN, CLOSED = 0.0, 1.0
+SAFE_Z = 0.30
+"""Height (m) of free-space transit moves."""
+GRIP_TIME = 0.6
+"""Seconds given to the fingers to close or open."""
+
+
+@dataclass(frozen=True)
+class GraspPose:
+    """Top-down grasp of a free object: end-effector ``height`` (m) above the object's bottom-centre frame,
+    gripper yaw = object yaw + ``yaw_offset`` (rad), object ``width`` (m) between the pads."""
+
+    height: float
+    yaw_offset: float
+    width: float
+
+    def pose(self, scene: KitchenScene, name: str) -> tuple[np.ndarray, np.ndarray]:
+        """End-effector position (3,) and orientation (4,) grasping ``name`` where it is now."""
+        pos, _ = scene.pose(name)
+        yaw = scene.yaw(name) + self.yaw_offset
+        yaw = (yaw + math.pi / 2) % math.pi - math.pi / 2
+        return pos + np.array([0.0, 0.0, self.height]), np.array(top_down(yaw))
+
+
+GRASPS: dict[str, GraspPose] = {
+    "bottle": GraspPose(0.07, 0.0, 0.06),
+    "bowl": GraspPose(0.028, 0.0, 0.074),
+    "mug": GraspPose(0.06, math.pi / 2, 0.07),
+    "toothpaste": GraspPose(0.075, math.pi / 2, 0.022),
+    "spatula": GraspPose(0.018, 0.0, 0.022),
+    "can": GraspPose(0.06, 0.0, 0.06),
+    "cube": GraspPose(0.025, 0.0, 0.04),
+}
+"""Grasp of each free object of the default scene."""
+
+
+def plan(env: KitchenEnv, waypoints: list[Waypoint]) -> Trajectory:
+    """Trajectory from the current end-effector pose (and gripper state) through ``waypoints``."""
+    ee = env.robot.ee_pose()
+    return Trajectory.from_waypoints(ee.position, ee.orientation, waypoints, env.dt)
+
+
+def current(env: KitchenEnv) -> tuple[np.ndarray, np.ndarray, float]:
+    ee = env.robot.ee_pose()
+    return ee.position, ee.orientation, CLOSED if env.robot.gripper_closed else OPEN
+
+
+def transit(env: KitchenEnv, goal: np.ndarray, orientation: np.ndarray, gripper: float,
+            z: float = SAFE_Z) -> list[Waypoint]:
+    """Rise to ``z`` (or stay higher), travel over ``goal`` while turning to ``orientation``, go down to it."""
+    pos, orn, _ = current(env)
+    top = max(z, float(pos[2]))
+    return [
+        Waypoint(np.array([pos[0], pos[1], top]), orn, gripper),
+        Waypoint(np.array([goal[0], goal[1], top]), orientation, gripper),
+        Waypoint(np.asarray(goal, float), orientation, gripper),
+    ]
+
+
+def pick(env: KitchenEnv, name: str, lift: float = 0.12) -> list[Waypoint]:
+    """Open, come from above, close on ``name`` and lift it by ``lift`` m."""
+    ee, orn = GRASPS[name].pose(env.scene, name)
+    above = ee + np.array([0, 0, 0.12])
+    return [
+        *transit(env, above, orn, OPEN, z=max(SAFE_Z, above[2])),
+        Waypoint(ee, orn, OPEN, 0.9),
+        Waypoint(ee, orn, CLOSED, GRIP_TIME),
+        Waypoint(ee + np.array([0, 0, lift]), orn, CLOSED, 1.0),
+    ]
+
+
+def release(env: KitchenEnv, rise: float = 0.10) -> list[Waypoint]:
+    """Open the fingers where the hand is, then move up by ``rise`` m."""
+    pos, orn, _ = current(env)
+    return [Waypoint(pos, orn, OPEN, GRIP_TIME), Waypoint(pos + np.array([0, 0, rise]), orn, OPEN, 0.8)]
+
+
+def carry(env: KitchenEnv, name: str, com_goal: np.ndarray, clearance: float) -> list[Waypoint]:
+    """Move the held ``name`` so that its centre of mass reaches ``com_goal`` (3,), travelling with its
+    lowest point at least ``clearance`` m high; the hand keeps its orientation and the measured
+    hand-to-object offset."""
+    pos, orn, _ = current(env)
+    com = env.truth.com(name)
+    offset = pos - com
+    below = com[2] - env.scene.aabb(name)[0][2]
+    travel_z = max(clearance + below + offset[2], float(pos[2]))
+    goal = np.asarray(com_goal, float) + offset
+    return [
+        Waypoint(np.array([pos[0], pos[1], travel_z]), orn, CLOSED),
+        Waypoint(np.array([goal[0], goal[1], travel_z]), orn, CLOSED),
+        Waypoint(goal, orn, CLOSED, max(0.6, (travel_z - goal[2]) / 0.12)),
+        Waypoint(goal, orn, CLOSED, 0.3),
+    ]
+
+
+def bottom_to_com(env: KitchenEnv, name: str) -> float:
+    """Height (m) of a free object's centre of mass above its lowest point, as it is held now."""
+    return float(env.truth.com(name)[2] - env.scene.aabb(name)[0][2])
+
+
+# ----------------------------------------------------------------------------------------- furniture
+def drawer_handle(scene: KitchenScene, drawer: str) -> np.ndarray:
+    """World centre (3,) of a drawer's handle bar."""
+    spec = scene.specs["cabinet"]
+    assert isinstance(spec, CabinetSpec)
+    pos, _ = scene.pose(drawer)
+    return pos + np.array([-spec.handle_standoff, 0.0, spec.drawer_height / 2])
+
+
+def drawer_motion(env: KitchenEnv, drawer: str, to_fraction: float) -> list[Waypoint]:
+    """Grasp a drawer's handle with the hand pointing +x, slide it to ``to_fraction`` of its travel,
+    let go and back off."""
+    spec = env.scene.specs["cabinet"]
+    assert isinstance(spec, CabinetSpec)
+    handle = drawer_handle(env.scene, drawer)
+    orn = np.array(forward())
+    pre = handle - np.array([0.12, 0, 0])
+    travel = (to_fraction - env.scene.open_fraction(drawer)) * spec.travel
+    goal = handle - np.array([travel, 0, 0])
+    back = goal - np.array([0.10, 0, 0])
+    return [
+        *transit(env, pre, orn, OPEN),
+        Waypoint(handle, orn, OPEN, 1.0),
+        Waypoint(handle, orn, CLOSED, GRIP_TIME),
+        Waypoint(goal, orn, CLOSED, max(1.0, abs(travel) / 0.12)),
+        Waypoint(goal, orn, OPEN, GRIP_TIME),
+        Waypoint(back, orn, OPEN, 0.8),
+    ]
+
+
+def _rot_y(angle: float) -> np.ndarray:
+    return Rotation.from_euler("y", angle).as_matrix()
+
+
+def _rot_z(angle: float) -> np.ndarray:
+    return Rotation.from_euler("z", angle).as_matrix()
+
+
+def box_hinge(scene: KitchenScene) -> np.ndarray:
+    """World position (3,) of a point on the box lid's hinge axis (the axis is world y)."""
+    spec = scene.specs["box"]
+    assert isinstance(spec, BoxSpec)
+    pos, _ = scene.pose("box")
+    return pos + np.array([spec.size[0] / 2, 0.0, spec.size[2]])
+
+
+def lid_open(env: KitchenEnv, to_angle: float = 1.78) -> list[Waypoint]:
+    """Slide the closed fingertips (hand pointing +x) under the lid's lip and lift it along its arc past
+    vertical; gravity lays it on its stop."""
+    spec = env.scene.specs["box"]
+    assert isinstance(spec, BoxSpec)
+    hinge = box_hinge(env.scene)
+    orn = np.array(forward())
+    start = np.array([-(spec.size[0] + spec.lip[0] / 2), 0.0, -0.014])
+    pre = hinge + start - np.array([0.10, 0, 0])
+    arc = [
+        Waypoint(hinge + _rot_y(a) @ start, orn, CLOSED, 0.12)
+        for a in np.linspace(0.05, to_angle, 24)
+    ]
+    end = arc[-1].position
+    return [
+        *transit(env, pre, orn, CLOSED),
+        Waypoint(hinge + start, orn, CLOSED, 0.8),
+        *arc,
+        Waypoint(end - np.array([0.12, 0, 0]), orn, CLOSED, 0.8),
+    ]
+
+
+def lid_close(env: KitchenEnv, to_angle: float = 0.6) -> list[Waypoint]:
+    """Push the open lid from behind with the downward fingertips along its arc until gravity shuts it."""
+    spec = env.scene.specs["box"]
+    assert isinstance(spec, BoxSpec)
+    hinge = box_hinge(env.scene)
+    angle = env.scene.joint_position("box")
+    orn = np.array(top_down(math.pi / 2))
+    radius = spec.size[0] - 0.04
+    contact = np.array([-radius, 0.0, spec.lid + 0.025])
+    first = hinge + _rot_y(angle) @ contact
+    arc = [
+        Waypoint(hinge + _rot_y(a) @ contact, orn, CLOSED, 0.12)
+        for a in np.linspace(angle, to_angle, 20)
+    ]
+    up = arc[-1].position + np.array([-0.05, 0, 0.10])
+    return [*transit(env, first + np.array([0, 0, 0.10]), orn, CLOSED), Waypoint(first, orn, CLOSED, 0.8),
+            *arc, Waypoint(up, orn, CLOSED, 0.8)]
+
+
+def door_motion(env: KitchenEnv, to_angle: float) -> list[Waypoint]:
+    """Grasp the microwave's handle with the hand facing the door and swing it about the hinge to
+    ``to_angle`` rad, then let go and back off."""
+    spec = env.scene.specs["microwave"]
+    assert isinstance(spec, MicrowaveSpec)
+    origin, _ = env.scene.pose("microwave")
+    hinge = origin + np.array([0.0, -spec.width / 2, 0.0])
+    angle = env.scene.joint_position("microwave")
+    local = np.array([-spec.handle_standoff, spec.width - 0.035, spec.height / 2])
+    handle = hinge + _rot_z(angle) @ local
+    approach = _rot_z(angle) @ np.array([1.0, 0, 0])
+    pre = handle - 0.12 * approach
+    n = max(2, round(abs(to_angle - angle) / 0.05))
+    arc = [
+        Waypoint(hinge + _rot_z(a) @ local, np.array(forward(a)), CLOSED, 0.12)
+        for a in np.linspace(angle, to_angle, n)[1:]
+    ]
+    end, end_orn = arc[-1].position, arc[-1].orientation
+    back = end - 0.10 * (_rot_z(to_angle) @ np.array([1.0, 0, 0]))
+    return [
+        *transit(env, pre, np.array(forward(angle)), OPEN),
+        Waypoint(handle, np.array(forward(angle)), OPEN, 1.0),
+        Waypoint(handle, np.array(forward(angle)), CLOSED, GRIP_TIME),
+        *arc,
+        Waypoint(end, end_orn, OPEN, GRIP_TIME),
+        Waypoint(back, end_orn, OPEN, 0.8),
+    ]
