@@ -17,6 +17,7 @@ from taskcond.conditions import (
     GripperState,
     Relation,
     SpatialRelation,
+    TaskCondition,
     parse_predicate,
 )
 from taskcond.sim.camera import CameraSpec, render
@@ -398,6 +399,16 @@ def test_drawer_link_is_segmented_apart_from_its_cabinet(client: int) -> None:
     assert rel("drawer", "in front of", "cabinet") in info.predicates
 
 
+def test_unnamed_links_belong_to_their_named_ancestor(client: int) -> None:
+    cabinet = add_cabinet(client, (0.6, 0.0, 0.15))
+    p.resetJointState(cabinet, 0, 0.2, physicsClientId=client)
+    scene = SceneDescription(client, [NamedBody("cabinet", cabinet, -1, "furniture")])
+    for mode in ("ground_truth", "point_cloud"):
+        info = Perception(scene, PerceptionConfig(mode=mode, cameras=CAMERAS)).observe(0)
+        assert set(info.boxes) == {"cabinet"}
+        assert_allclose(info.boxes["cabinet"].lower[0], 0.6 - 0.15 - 0.01 - 0.2, atol=0.008)
+
+
 # -------------------------------------------------------------------------------------- object states
 @pytest.mark.parametrize(("position", "is_open"), [(0.0, False), (0.12, False), (0.13, True), (0.25, True)])
 def test_container_state_follows_the_joint(client: int, position: float, is_open: bool) -> None:
@@ -452,10 +463,24 @@ def close_fingers(client: int, panda: int, steps: int = 120) -> None:
         p.stepSimulation(physicsClientId=client)
 
 
+GRASP_CUBE = TaskCondition.from_text(
+    """Task name: grasp cube
+Relevant objects: cube, gripper
+Pre-conditions:
+  gripper not grasping
+Post-conditions:
+  cube inside gripper
+  gripper grasping cube
+Collisions: gripper and cube"""
+)
+
+
 def test_gripper_grasps_the_cube_between_its_fingers(client: int) -> None:
     scene, panda = grasp_scene(client)
     perception = Perception(scene, PerceptionConfig(cameras=CAMERAS))
     before = perception.observe(0)
+    assert before.missing(GRASP_CUBE.pre_conditions) == []
+    assert before.missing(GRASP_CUBE.post_conditions) == [GripperState("cube")]
     assert GripperState(None) in before.predicates
     assert rel("cube", "inside", "gripper") in before.predicates
     close_fingers(client, panda)
@@ -463,7 +488,8 @@ def test_gripper_grasps_the_cube_between_its_fingers(client: int) -> None:
     assert GripperState("cube") in after.predicates
     assert GripperState(None) not in after.predicates
     assert rel("cube", "inside", "gripper") in after.predicates
-    assert after.collisions == {Collision("gripper", "cube")}
+    assert after.missing(GRASP_CUBE.post_conditions) == []
+    assert after.collisions == set(GRASP_CUBE.collisions)
     (contact,) = after.contacts
     assert contact.normal_force > 10.0
     assert_allclose(contact.position, after.boxes["cube"].center, atol=0.025)

@@ -482,7 +482,7 @@ class Perception:
         """
         states = []
         for gripper in self.scene.grippers:
-            # normals[k][X]: mean unit normal (from X towards finger k) and force of X's contacts on finger k.
+            # per_finger[k][X]: mean normal (from X towards finger k) and total force of X's contacts on it.
             per_finger: list[dict[str, tuple[np.ndarray, float]]] = []
             for finger in gripper.finger_links:
                 on_a = (points.body_a == gripper.body_id) & (points.link_a == finger)
