@@ -429,18 +429,52 @@ def test_container_state_follows_the_joint(client: int, position: float, is_open
     assert states == {ContainerState("drawer", is_open), ContainerState("bowl", True)}
 
 
-def test_revolute_lid(client: int) -> None:
-    lid_box = add_cabinet(client, (0.6, 0.0, 0.15), joint_type=p.JOINT_REVOLUTE)
+def add_lidded_box(client: int) -> int:
+    """A 20×20×10 cm box (base, top at z = 0.1) with a 1 cm lid (link 0) hinged at its +x edge about y."""
+    base_col = p.createCollisionShape(p.GEOM_BOX, halfExtents=(0.1, 0.1, 0.05), physicsClientId=client)
+    base_vis = p.createVisualShape(p.GEOM_BOX, halfExtents=(0.1, 0.1, 0.05), physicsClientId=client)
+    lid_half, lid_frame = (0.1, 0.1, 0.005), (-0.1, 0.0, 0.005)
+    lid_col = p.createCollisionShape(
+        p.GEOM_BOX, halfExtents=lid_half, collisionFramePosition=lid_frame, physicsClientId=client
+    )
+    lid_vis = p.createVisualShape(
+        p.GEOM_BOX, halfExtents=lid_half, visualFramePosition=lid_frame, physicsClientId=client
+    )
+    return p.createMultiBody(
+        0.0,
+        base_col,
+        base_vis,
+        basePosition=(0.5, 0.0, 0.05),
+        linkMasses=[0.1],
+        linkCollisionShapeIndices=[lid_col],
+        linkVisualShapeIndices=[lid_vis],
+        linkPositions=[(0.1, 0.0, 0.05)],
+        linkOrientations=[(0, 0, 0, 1)],
+        linkInertialFramePositions=[(0, 0, 0)],
+        linkInertialFrameOrientations=[(0, 0, 0, 1)],
+        linkParentIndices=[0],
+        linkJointTypes=[p.JOINT_REVOLUTE],
+        linkJointAxis=[(0.0, 1.0, 0.0)],
+        physicsClientId=client,
+    )
+
+
+def test_revolute_lid_opens_the_box_without_growing_it(client: int) -> None:
+    lidded = add_lidded_box(client)
     scene = SceneDescription(
         client,
-        [NamedBody("box", lid_box, kind="container")],
-        [ContainerJoint("box", lid_box, 0, closed_position=0.0, open_position=-1.5)],
+        [NamedBody("box", lidded, kind="container")],
+        [ContainerJoint("box", lidded, 0, closed_position=0.0, open_position=1.5)],
     )
-    perception = Perception(scene, PerceptionConfig(check_visibility=False))
-    p.resetJointState(lid_box, 0, -1.0, physicsClientId=client)
-    assert ContainerState("box", True) in perception.observe(0).predicates
-    p.resetJointState(lid_box, 0, -0.5, physicsClientId=client)
-    assert ContainerState("box", False) in perception.observe(0).predicates
+    for mode in ("ground_truth", "point_cloud"):
+        perception = Perception(scene, PerceptionConfig(mode=mode, cameras=CAMERAS))
+        p.resetJointState(lidded, 0, 1.0, physicsClientId=client)
+        assert p.getAABB(lidded, 0, physicsClientId=client)[1][2] > 0.15  # the lid stands up ...
+        opened = perception.observe(0)
+        assert ContainerState("box", True) in opened.predicates
+        assert opened.boxes["box"].upper[2] == pytest.approx(0.1, abs=0.008)  # ... but is not the box
+        p.resetJointState(lidded, 0, 0.5, physicsClientId=client)
+        assert ContainerState("box", False) in perception.observe(0).predicates
 
 
 def grasp_scene(client: int) -> tuple[SceneDescription, int]:

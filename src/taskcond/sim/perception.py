@@ -18,10 +18,11 @@ the pre- and post-conditions of a :class:`~taskcond.conditions.TaskCondition`.
 
 Naming of bodies and links: a :class:`~taskcond.sim.description.NamedBody` names one link of a body (``-1``
 = the base); links nobody names belong to their nearest named ancestor link, so a cabinet's base owns its
-unnamed handle links while each named drawer owns its own. Every link of a gripper's arm is the gripper in
-contacts; the gripper's *box* is the axis-aligned box of its two finger links and its *centre* the grasp point
-(end-effector link), both from forward kinematics in both modes and never noisy (a robot knows where its own
-hand is).
+unnamed handle links while each named drawer owns its own. An unnamed lid or door (the link a container
+joint moves) belongs to its container in contacts and visibility but not to its box. Every link of a
+gripper's arm is the gripper in contacts; the gripper's *box* is the axis-aligned box of its two finger
+links and its *centre* the grasp point (end-effector link), both from forward kinematics in both modes and
+never noisy (a robot knows where its own hand is).
 """
 
 from __future__ import annotations
@@ -319,20 +320,15 @@ class Perception:
         self.scene = scene
         self.config = config or PerceptionConfig()
         self._client = scene.client
-        self._owner = self._link_owners()
+        self._owner, shape_links = self._link_owners()
         self._objects = [b.name for b in scene.bodies if b.kind in _BOX_KINDS]
-        self._object_links = {
-            name: [key for key, owner in self._owner.items() if owner == name] for name in self._objects
-        }
-        # Segmentation value (body + ((link + 1) << 24)) of every link of a boxed object, sorted, and the
-        # index into self._objects of its owner.
-        codes = {
-            body + ((link + 1) << 24): i
-            for i, name in enumerate(self._objects)
-            for body, link in self._object_links[name]
-        }
-        self._codes = np.array(sorted(codes), dtype=np.int64)
-        self._code_owner = np.array([codes[k] for k in sorted(codes)], dtype=np.int64)
+        index = {name: i for i, name in enumerate(self._objects)}
+        # Links of each boxed object whose pixels make it visible (all it owns) and whose geometry makes its
+        # box (all but unnamed lids and doors).
+        seen = {key: index[owner] for key, owner in self._owner.items() if owner in index}
+        shape = {key: i for key, i in seen.items() if key in shape_links}
+        self._shape_links = [[key for key, i in shape.items() if i == k] for k in range(len(self._objects))]
+        self._seen_lookup, self._shape_lookup = _SegmentationLookup.of(seen), _SegmentationLookup.of(shape)
         jointed = {c.name for c in scene.containers}
         self._vessels = [b.name for b in scene.bodies if b.kind == "container" and b.name not in jointed]
 
@@ -375,8 +371,9 @@ class Perception:
         return EnvironmentInfo(boxes, frozenset(predicates), contacts, timing)
 
     def ground_truth_box(self, name: str) -> ObjectBox:
-        """PyBullet's AABB of a named object (union over the links it owns); centre = box centre."""
-        return self._union_box(name, self._object_links[name])
+        """PyBullet's AABB of a named object (union over the links it owns except unnamed lids and doors);
+        centre = box centre."""
+        return self._union_box(name, self._shape_links[self._objects.index(name)])
 
     def gripper_box(self, gripper: GripperSpec) -> ObjectBox:
         """The gripper's box: PyBullet's AABB of its two finger links; its centre is the end-effector link's
@@ -398,7 +395,7 @@ class Perception:
         """Objects seen in at least ``min_visible_pixels`` pixels over all frames, in scene order."""
         counts = np.zeros(len(self._objects), dtype=np.int64)
         for frame in frames:
-            labels = self._labels(frame)
+            labels = self._seen_lookup.labels(frame)
             counts += np.bincount(labels[labels >= 0], minlength=len(self._objects))
         return [
             name for name, n in zip(self._objects, counts, strict=True) if n >= self.config.min_visible_pixels
@@ -426,45 +423,46 @@ class Perception:
         }
 
     # ---------------------------------------------------------------------------------------- helpers
-    def _link_owners(self) -> dict[tuple[int, int], str]:
-        """Name owning each (body, link): named links, their unnamed descendants, and all links of arms."""
-        named: dict[tuple[int, int], str] = {(b.body_id, b.link_index): b.name for b in self.scene.bodies}
+    def _link_owners(self) -> tuple[dict[tuple[int, int], str], set[tuple[int, int]]]:
+        """Name owning each (body, link), and the owned links that shape their owner's box.
+
+        A link is owned by its nearest named ancestor-or-self; every link of a gripper's arm by the gripper.
+        An unnamed link moved by a container joint (a lid, a door) and its descendants belong to the
+        container but not to its box, so that an open lid does not make the box taller.
+        """
+        named = {(b.body_id, b.link_index): b.name for b in self.scene.bodies}
+        moving = {(c.body_id, c.joint_index) for c in self.scene.containers}
         owners: dict[tuple[int, int], str] = {}
+        shape: set[tuple[int, int]] = set()
         for body in {b.body_id for b in self.scene.bodies}:
             parents = {
                 j: p.getJointInfo(body, j, physicsClientId=self._client)[16]
                 for j in range(p.getNumJoints(body, physicsClientId=self._client))
             }
             for link in (-1, *parents):
-                ancestor = link
+                ancestor, on_lid = link, False
                 while (body, ancestor) not in named and ancestor != -1:
+                    on_lid |= (body, ancestor) in moving
                     ancestor = parents[ancestor]
                 if (body, ancestor) in named:
                     owners[(body, link)] = named[(body, ancestor)]
+                    if not on_lid:
+                        shape.add((body, link))
         for gripper in self.scene.grippers:
             for link in range(-1, p.getNumJoints(gripper.body_id, physicsClientId=self._client)):
                 owners[(gripper.body_id, link)] = gripper.name
-        return owners
+        return owners, shape
 
     def _union_box(self, name: str, links: Iterable[tuple[int, int]]) -> ObjectBox:
         aabbs = np.array([p.getAABB(body, link, physicsClientId=self._client) for body, link in links])
         lower, upper = aabbs[:, 0].min(axis=0), aabbs[:, 1].max(axis=0)
         return ObjectBox(name, (lower + upper) / 2.0, lower, upper)
 
-    def _labels(self, frame: RGBDFrame) -> np.ndarray:
-        """(H, W) index into the boxed objects of each pixel's owner; -1 for anything else."""
-        code = frame.body.astype(np.int64) + ((frame.link.astype(np.int64) + 1) << 24)
-        if self._codes.size == 0:
-            return np.full(code.shape, -1, dtype=np.int64)
-        pos = np.clip(np.searchsorted(self._codes, code), 0, self._codes.size - 1)
-        hit = (self._codes[pos] == code) & (frame.body >= 0)
-        return np.where(hit, self._code_owner[pos], -1)
-
     def _labelled_points(self, frames: Iterable[RGBDFrame]) -> tuple[np.ndarray, np.ndarray]:
-        """Owner indices (n,) and world points (n, 3) of all object pixels of all frames."""
+        """Owner indices (n,) and world points (n, 3) of the box-shaping pixels of all frames."""
         labels, points = [np.empty(0, dtype=np.int64)], [np.empty((0, 3))]
         for frame in frames:
-            frame_labels = self._labels(frame)
+            frame_labels = self._shape_lookup.labels(frame)
             mask = frame_labels >= 0
             labels.append(frame_labels[mask])
             points.append(frame.world_points(mask))
@@ -511,6 +509,30 @@ class Perception:
             fraction = (q - joint.closed_position) / (joint.open_position - joint.closed_position)
             states.append(ContainerState(joint.name, bool(fraction >= joint.open_fraction)))
         return states
+
+
+@dataclass(frozen=True, eq=False)
+class _SegmentationLookup:
+    """Maps segmentation values ``body + ((link + 1) << 24)`` (sorted, (k,)) to object indices (k,)."""
+
+    codes: np.ndarray
+    owners: np.ndarray
+
+    @classmethod
+    def of(cls, links: Mapping[tuple[int, int], int]) -> _SegmentationLookup:
+        table = sorted((body + ((link + 1) << 24), i) for (body, link), i in links.items())
+        return cls(
+            np.array([c for c, _ in table], dtype=np.int64), np.array([i for _, i in table], dtype=np.int64)
+        )
+
+    def labels(self, frame: RGBDFrame) -> np.ndarray:
+        """(H, W) object index of each pixel; -1 for background and links of no object."""
+        code = frame.body.astype(np.int64) + ((frame.link.astype(np.int64) + 1) << 24)
+        if self.codes.size == 0:
+            return np.full(code.shape, -1, dtype=np.int64)
+        pos = np.clip(np.searchsorted(self.codes, code), 0, self.codes.size - 1)
+        hit = (self.codes[pos] == code) & (frame.body >= 0)
+        return np.where(hit, self.owners[pos], -1)
 
 
 @dataclass(frozen=True, eq=False)
