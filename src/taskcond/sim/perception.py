@@ -54,10 +54,11 @@ _BOX_KINDS = ("object", "container", "furniture")
 comes from its :class:`~taskcond.sim.description.GripperSpec`)."""
 
 DEFAULT_CAMERAS: tuple[CameraSpec, ...] = (
-    CameraSpec(eye=(1.3, 0.7, 1.1), target=(0.5, 0.0, 0.2)),
-    CameraSpec(eye=(1.3, -0.7, 1.1), target=(0.5, 0.0, 0.2)),
+    CameraSpec(eye=(-0.1, 0.9, 1.2), target=(0.45, 0.0, 0.1)),
+    CameraSpec(eye=(-0.1, -0.9, 1.2), target=(0.45, 0.0, 0.1)),
 )
-"""Two 320×240 cameras looking down at a table in front of a robot at the origin facing +x."""
+"""Two 320×240 cameras high on either side of a robot at the origin facing +x, looking down at the table in
+front of it: they see the faces turned towards the robot (drawer fronts, doors)."""
 
 
 @dataclass(frozen=True, eq=False)
