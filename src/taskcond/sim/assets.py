@@ -313,7 +313,7 @@ class BoxSpec:
     wall: float = 0.01
     lid: float = 0.01
     lip: Vec3 = (0.035, 0.10, 0.01)
-    open_angle: float = 1.75
+    open_angle: float = 1.68
     lid_mass: float = 0.15
     rgba: RGBA = (0.72, 0.5, 0.3, 1.0)
     lid_rgba: RGBA = (0.62, 0.42, 0.25, 1.0)
@@ -424,14 +424,15 @@ class CabinetSpec:
 
 @dataclass(frozen=True)
 class MicrowaveSpec:
-    """A microwave oven with a door hinged on its right (-y) side and a vertical bar handle."""
+    """A microwave oven with a door hinged on its right (-y) side; the handle is a fin standing on the
+    door's top edge at its free end (``fin``: thickness x, length y, height z), pinched from above."""
 
     width: float = 0.30
     depth: float = 0.25
     height: float = 0.20
     wall: float = 0.01
     door: float = 0.015
-    handle_standoff: float = 0.04
+    fin: Vec3 = (0.012, 0.05, 0.03)
     open_angle: float = 1.6
     door_mass: float = 0.3
     rgba: RGBA = (0.25, 0.25, 0.27, 1.0)
@@ -445,14 +446,10 @@ class MicrowaveSpec:
             Shape("box", (d, t, h), (d / 2, -w / 2 + t / 2, h / 2), rgba=self.rgba),
             Shape("box", (t, w, h), (d - t / 2, 0, h / 2), rgba=self.rgba),
         )
-        s = self.handle_standoff
-        hz = h * 0.5
-        dark = (0.1, 0.1, 0.1, 1.0)
+        fx, fy, fz = self.fin
         door = (
             Shape("box", (self.door, w, h), (-self.door / 2, w / 2, h / 2), rgba=(0.12, 0.12, 0.14, 1.0)),
-            Shape("box", (0.018, 0.018, hz), (-s, w - 0.035, h / 2), rgba=(0.7, 0.7, 0.7, 1.0)),
-            Shape("box", (s, 0.012, 0.012), (-s / 2, w - 0.035, h / 2 + hz / 2 - 0.006), rgba=dark),
-            Shape("box", (s, 0.012, 0.012), (-s / 2, w - 0.035, h / 2 - hz / 2 + 0.006), rgba=dark),
+            Shape("box", self.fin, (-self.door / 2, w - fy / 2 - 0.01, h + fz / 2), rgba=(0.7, 0.7, 0.7, 1.0)),
         )
         return [Link("shell", shell, 0.0), Link("door", door, self.door_mass)]
 

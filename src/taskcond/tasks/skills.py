@@ -169,7 +169,7 @@ def box_hinge(scene: KitchenScene) -> np.ndarray:
     return pos + np.array([spec.size[0] / 2, 0.0, spec.size[2]])
 
 
-def lid_open(env: KitchenEnv, to_angle: float = 1.78) -> list[Waypoint]:
+def lid_open(env: KitchenEnv, to_angle: float = 1.72) -> list[Waypoint]:
     """Slide the closed fingertips (hand pointing +x) under the lid's lip and lift it along its arc past
     vertical; gravity lays it on its stop."""
     spec = env.scene.specs["box"]
@@ -197,9 +197,8 @@ def lid_close(env: KitchenEnv, to_angle: float = 0.6) -> list[Waypoint]:
     assert isinstance(spec, BoxSpec)
     hinge = box_hinge(env.scene)
     angle = env.scene.joint_position("box")
-    orn = np.array(top_down(math.pi / 2))
-    radius = spec.size[0] - 0.04
-    contact = np.array([-radius, 0.0, spec.lid + 0.025])
+    orn = np.array(top_down())
+    contact = np.array([-(spec.size[0] - 0.01), 0.0, spec.lid + 0.035])
     first = hinge + _rot_y(angle) @ contact
     arc = [
         Waypoint(hinge + _rot_y(a) @ contact, orn, CLOSED, 0.12)
@@ -211,29 +210,28 @@ def lid_close(env: KitchenEnv, to_angle: float = 0.6) -> list[Waypoint]:
 
 
 def door_motion(env: KitchenEnv, to_angle: float) -> list[Waypoint]:
-    """Grasp the microwave's handle with the hand facing the door and swing it about the hinge to
-    ``to_angle`` rad, then let go and back off."""
+    """Pinch the microwave door's fin from above (fingers across the door), swing the door about its
+    hinge to ``to_angle`` rad turning the hand with it, then let go and rise."""
     spec = env.scene.specs["microwave"]
     assert isinstance(spec, MicrowaveSpec)
     origin, _ = env.scene.pose("microwave")
     hinge = origin + np.array([0.0, -spec.width / 2, 0.0])
     angle = env.scene.joint_position("microwave")
-    local = np.array([-spec.handle_standoff, spec.width - 0.035, spec.height / 2])
-    handle = hinge + _rot_z(angle) @ local
-    approach = _rot_z(angle) @ np.array([1.0, 0, 0])
-    pre = handle - 0.12 * approach
+    local = np.array([-spec.door / 2, spec.width - spec.fin[1] / 2 - 0.01, spec.height + 0.016])
+    grip = hinge + _rot_z(angle) @ local
+    above = np.array([0, 0, 0.10])
     n = max(2, round(abs(to_angle - angle) / 0.05))
     arc = [
-        Waypoint(hinge + _rot_z(a) @ local, np.array(forward(a)), CLOSED, 0.12)
+        Waypoint(hinge + _rot_z(a) @ local, np.array(top_down(math.pi / 2 + a)), CLOSED, 0.12)
         for a in np.linspace(angle, to_angle, n)[1:]
     ]
     end, end_orn = arc[-1].position, arc[-1].orientation
-    back = end - 0.10 * (_rot_z(to_angle) @ np.array([1.0, 0, 0]))
+    orn = np.array(top_down(math.pi / 2 + angle))
     return [
-        *transit(env, pre, np.array(forward(angle)), OPEN),
-        Waypoint(handle, np.array(forward(angle)), OPEN, 1.0),
-        Waypoint(handle, np.array(forward(angle)), CLOSED, GRIP_TIME),
+        *transit(env, grip + above, orn, OPEN),
+        Waypoint(grip, orn, OPEN, 0.8),
+        Waypoint(grip, orn, CLOSED, GRIP_TIME),
         *arc,
         Waypoint(end, end_orn, OPEN, GRIP_TIME),
-        Waypoint(back, end_orn, OPEN, 0.8),
+        Waypoint(end + above, end_orn, OPEN, 0.8),
     ]
