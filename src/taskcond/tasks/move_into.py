@@ -9,7 +9,6 @@ from __future__ import annotations
 import numpy as np
 
 from taskcond.conditions import Predicate, Relation, SpatialRelation
-from taskcond.sim.assets import CabinetSpec
 from taskcond.tasks.base import PrimitiveTask
 from taskcond.tasks.env import KitchenEnv
 from taskcond.tasks.skills import GRASPS, bottom_to_com, carry
@@ -27,17 +26,17 @@ FLOOR_GAP = 0.02
 
 
 def into_goal(env: KitchenEnv, a: str, b: str) -> tuple[np.ndarray, float]:
-    """Goal centre of mass (3,) of A inside B and the rim height (m) to clear on the way."""
+    """Goal centre of mass (3,) of A inside B and the rim height (m) to clear on the way. In a drawer the
+    goal is just behind its front panel, so that the hand stays clear of the cabinet and the drawer
+    above."""
     inner = env.scene.interior(b)
     floor = inner.center[2] - inner.half_extents[2]
     rim = inner.center[2] + inner.half_extents[2]
     xy = inner.center[:2]
     if b.endswith("drawer"):
-        spec = env.scene.specs["cabinet"]
-        assert isinstance(spec, CabinetSpec)
         front, _ = env.scene.pose(b)
-        out = spec.travel * env.scene.open_fraction(b)
-        xy = np.array([front[0] + 0.01 + min(out, spec.depth) / 2, xy[1]])
+        lo, hi = env.scene.aabb(a)
+        xy = np.array([front[0] + 0.025 + (hi[0] - lo[0]) / 2, xy[1]])
     goal = np.array([xy[0], xy[1], floor + FLOOR_GAP + bottom_to_com(env, a)])
     return goal, rim
 
