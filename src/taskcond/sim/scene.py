@@ -75,7 +75,7 @@ class SceneConfig:
             "can": (
                 BottleSpec(radius=0.03, height=0.09, neck_radius=0.028, neck_height=0.01, mass=0.2,
                            rgba=(0.2, 0.3, 0.8, 1.0)),
-                Placement((0.14, 0.46)),
+                Placement((0.20, -0.45)),
             ),
         }
     )

@@ -205,7 +205,8 @@ def lid_close(env: KitchenEnv, to_angle: float = 0.6) -> list[Waypoint]:
         for a in np.linspace(angle, to_angle, 20)
     ]
     up = arc[-1].position + np.array([-0.05, 0, 0.10])
-    return [*transit(env, first + np.array([0, 0, 0.10]), orn, CLOSED), Waypoint(first, orn, CLOSED, 0.8),
+    over = hinge[2] + spec.size[0] + 0.10
+    return [*transit(env, first + np.array([0, 0, 0.10]), orn, CLOSED, z=over), Waypoint(first, orn, CLOSED, 0.8),
             *arc, Waypoint(up, orn, CLOSED, 0.8)]
 
 
