@@ -1,0 +1,143 @@
+"""Tests of the PyBullet kitchen task suite (paper §IV): registry, environments, success checks, oracles."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+pytest.importorskip("pybullet")
+
+from taskcond.conditions import ContainerState, GripperState, Relation, SpatialRelation  # noqa: E402
+from taskcond.primitives import PRIMITIVES  # noqa: E402
+from taskcond.sim.description import SceneDescription  # noqa: E402
+from taskcond.tasks.oracle import run_oracle  # noqa: E402
+from taskcond.tasks.registry import UnknownTaskError, list_tasks, make, task_ids  # noqa: E402
+
+pytestmark = pytest.mark.sim
+
+
+@pytest.fixture(scope="module")
+def env():
+    e = make("grasp-bottle", seed=0)
+    yield e
+    e.close()
+
+
+def test_registry_covers_primitives_and_long_horizon():
+    infos = list_tasks()
+    ids = [i.id for i in infos]
+    assert len(ids) == len(set(ids)) == len(task_ids())
+    prims = [i for i in infos if i.kind == "primitive"]
+    assert {i.primitive for i in prims} == set(PRIMITIVES) - {"fold"}
+    assert len(prims) >= 30
+    assert {"grasp-bottle", "open-top_drawer", "move_into-bottle-box"} <= set(ids)
+    lht = {i.id: i for i in infos if i.kind == "long-horizon"}
+    assert set(lht) == {"LHT1", "LHT2", "LHT3", "LHT1*", "LHT2*"}
+    assert lht["LHT1"].primitive == ("grasp bottle", "move bottle into box", "release bottle", "close box")
+    assert lht["LHT2*"].primitive[0] == "close bottom drawer"
+
+
+def test_unknown_names_list_valid_ones():
+    with pytest.raises(UnknownTaskError, match=r"unknown task 'fly-bottle'; valid: grasp-bottle"):
+        make("fly-bottle")
+    with pytest.raises(UnknownTaskError, match=r"unknown object\(s\) 'plate' for primitive 'grasp'; valid: bottle"):
+        make("grasp-plate")
+
+
+def test_every_task_makes_resets_and_steps():
+    """Smoke test over the whole registry in one client per task: make, seeded reset, a few steps."""
+    for task_id in task_ids():
+        e = make(task_id, seed=3)
+        try:
+            obs, info = e.reset()
+            assert obs["object_poses"].shape == (len(e.object_names), 7)
+            assert info["failure"] is None
+            hold = np.concatenate([obs["ee_position"], obs["ee_orientation"], [float(e.robot.gripper_closed)]])
+            for _ in range(3):
+                obs, _, terminated, _, info = e.step(hold)
+                assert not terminated, (task_id, info)
+            assert np.all(np.isfinite(obs["joint_positions"]))
+        finally:
+            e.close()
+
+
+def test_seeded_reset_is_reproducible(env):
+    a, _ = env.reset(seed=11)
+    b, _ = env.reset(seed=11)
+    c, _ = env.reset(seed=12)
+    np.testing.assert_allclose(a["object_poses"], b["object_poses"], atol=2e-3)
+    assert not np.allclose(a["object_poses"][:, :2], c["object_poses"][:, :2])
+
+
+def test_scene_description_names(env):
+    desc = env.scene.description()
+    assert isinstance(desc, SceneDescription)
+    names = {b.name for b in desc.bodies}
+    for n in ("bottle", "box", "top drawer", "bottom drawer", "microwave", "bowl", "mug", "toothpaste", "spatula",
+              "table", "cabinet"):
+        assert n in names
+    assert {c.name for c in desc.containers} == {"box", "top drawer", "bottom drawer", "microwave"}
+    assert desc.grippers[0].finger_links == (9, 10)
+    assert desc.body("top drawer").link_index != desc.body("bottom drawer").link_index
+
+
+def test_render_and_action_forms(env):
+    env.reset(seed=0)
+    env.render_mode = "rgb_array"
+    img = env.render()
+    assert img.shape == (240, 320, 3) and img.dtype == np.uint8 and img.std() > 5
+    obs, *_ = env.step(np.array([0.45, 0.0, 0.35, np.pi, 0.0, 0.0, 0.0]))
+    assert np.linalg.norm(obs["ee_position"] - [0.45, 0.0, 0.35]) < 0.03
+    with pytest.raises(ValueError, match="shape"):
+        env.step(np.zeros(5))
+
+
+def test_blowup_ends_episode_with_reason(env):
+    env.reset(seed=0)
+    env.scene.place("bottle", (0.4, 0.0), 0.0, z=-5.0)
+    _, _, terminated, _, info = env.step(np.array([0.45, 0.0, 0.35, 1.0, 0.0, 0.0, 0.0, 0.0]))
+    assert terminated and info["failure"] == "bottle_left_workspace"
+
+
+def test_success_checks_on_hand_placed_states(env):
+    env.reset(seed=0)
+    truth, scene = env.truth, env.scene
+    assert truth.holds(ContainerState("box", False)) and not truth.holds(ContainerState("box", True))
+    scene.set_joint("top drawer", 1.0)
+    assert truth.holds(ContainerState("top drawer", True))
+    assert truth.holds(ContainerState("bowl", True))
+    inner = scene.interior("top drawer")
+    scene.place("bowl", inner.center[:2] - np.array([0.05, 0]), 0.0, z=inner.center[2] - inner.half_extents[2])
+    env.settle(0.2)
+    assert truth.holds(SpatialRelation("bowl", Relation.INSIDE, "top drawer"))
+    assert not truth.holds(SpatialRelation("bowl", Relation.INSIDE, "box"))
+    lo, hi = scene.aabb("box")
+    scene.place("toothpaste", (lo[:2] + hi[:2]) / 2, 0.0, z=hi[2] + 0.001)
+    env.settle(0.2)
+    assert truth.holds(SpatialRelation("toothpaste", Relation.ABOVE, "box"))
+    assert truth.holds(SpatialRelation("box", Relation.BELOW, "toothpaste"))
+    scene.place("mug", (lo[0] - 0.08, (lo[1] + hi[1]) / 2), 0.0)
+    env.settle(0.1)
+    assert truth.holds(SpatialRelation("mug", Relation.IN_FRONT_OF, "box"))
+    assert not truth.holds(SpatialRelation("bottle", Relation.IN_FRONT_OF, "box"))
+    assert truth.holds(GripperState(None)) and not truth.holds(GripperState("bottle"))
+
+
+@pytest.mark.parametrize(
+    "task_id",
+    ["grasp-bowl", "release-mug", "open-bottom_drawer", "close-box", "open-microwave", "tilt-bottle", "move-mug",
+     "move_on_top-bottle-box", "move_into-toothpaste-mug", "move_in_front-bowl-cabinet"],
+)
+def test_oracle_succeeds(task_id, tmp_path):
+    report = run_oracle(task_id, episodes=2, seed=100)
+    assert report.successes == 2, report.failures
+
+
+def test_long_horizon_oracle_and_video(tmp_path):
+    video = tmp_path / "lht1.gif"
+    report = run_oracle("LHT1", episodes=1, seed=5, video=video, keep_trajectories=True)
+    assert report.successes == 1, report.failures
+    assert video.stat().st_size > 10_000
+    traj = report.trajectories[0]
+    assert traj.positions.shape == (len(traj), 3) and traj.orientations.shape == (len(traj), 4)
+    assert set(np.unique(traj.gripper)) == {0.0, 1.0}
