@@ -91,8 +91,8 @@ def main() -> None:
     for task_id in args.tasks or task_ids():
         r = run_oracle(task_id, args.episodes, seed=args.seed)
         fails = ", ".join(f"{k}: {v}" for k, v in sorted(r.failures.items())) or "-"
-        print(f"| {task_id} | {r.episodes} | {100 * r.success_rate:.0f}% | {r.steps_per_second:.0f} | {fails} |",
-              flush=True)
+        rate = f"{100 * r.success_rate:.0f}%"
+        print(f"| {task_id} | {r.episodes} | {rate} | {r.steps_per_second:.0f} | {fails} |", flush=True)
 
 
 if __name__ == "__main__":

@@ -7,11 +7,11 @@ import pytest
 
 pytest.importorskip("pybullet")
 
-from taskcond.conditions import ContainerState, GripperState, Relation, SpatialRelation  # noqa: E402
-from taskcond.primitives import PRIMITIVES  # noqa: E402
-from taskcond.sim.description import SceneDescription  # noqa: E402
-from taskcond.tasks.oracle import run_oracle  # noqa: E402
-from taskcond.tasks.registry import UnknownTaskError, list_tasks, make, task_ids  # noqa: E402
+from taskcond.conditions import ContainerState, GripperState, Relation, SpatialRelation
+from taskcond.primitives import PRIMITIVES
+from taskcond.sim.description import SceneDescription
+from taskcond.tasks.oracle import run_oracle
+from taskcond.tasks.registry import UnknownTaskError, list_tasks, make, task_ids
 
 pytestmark = pytest.mark.sim
 
@@ -40,7 +40,9 @@ def test_registry_covers_primitives_and_long_horizon():
 def test_unknown_names_list_valid_ones():
     with pytest.raises(UnknownTaskError, match=r"unknown task 'fly-bottle'; valid: grasp-bottle"):
         make("fly-bottle")
-    with pytest.raises(UnknownTaskError, match=r"unknown object\(s\) 'plate' for primitive 'grasp'; valid: bottle"):
+    with pytest.raises(
+        UnknownTaskError, match=r"unknown object\(s\) 'plate' for primitive 'grasp'; valid: bottle"
+    ):
         make("grasp-plate")
 
 
@@ -52,7 +54,9 @@ def test_every_task_makes_resets_and_steps():
             obs, info = e.reset()
             assert obs["object_poses"].shape == (len(e.object_names), 7)
             assert info["failure"] is None
-            hold = np.concatenate([obs["ee_position"], obs["ee_orientation"], [float(e.robot.gripper_closed)]])
+            hold = np.concatenate(
+                [obs["ee_position"], obs["ee_orientation"], [float(e.robot.gripper_closed)]]
+            )
             for _ in range(3):
                 obs, _, terminated, _, info = e.step(hold)
                 assert not terminated, (task_id, info)
@@ -73,8 +77,19 @@ def test_scene_description_names(env):
     desc = env.scene.description()
     assert isinstance(desc, SceneDescription)
     names = {b.name for b in desc.bodies}
-    for n in ("bottle", "box", "top drawer", "bottom drawer", "microwave", "bowl", "mug", "toothpaste", "spatula",
-              "table", "cabinet"):
+    for n in (
+        "bottle",
+        "box",
+        "top drawer",
+        "bottom drawer",
+        "microwave",
+        "bowl",
+        "mug",
+        "toothpaste",
+        "spatula",
+        "table",
+        "cabinet",
+    ):
         assert n in names
     assert {c.name for c in desc.containers} == {"box", "top drawer", "bottom drawer", "microwave"}
     assert desc.grippers[0].finger_links == (9, 10)
@@ -107,7 +122,9 @@ def test_success_checks_on_hand_placed_states(env):
     assert truth.holds(ContainerState("top drawer", True))
     assert truth.holds(ContainerState("bowl", True))
     inner = scene.interior("top drawer")
-    scene.place("bowl", inner.center[:2] - np.array([0.05, 0]), 0.0, z=inner.center[2] - inner.half_extents[2])
+    scene.place(
+        "bowl", inner.center[:2] - np.array([0.05, 0]), 0.0, z=inner.center[2] - inner.half_extents[2]
+    )
     env.settle(0.2)
     assert truth.holds(SpatialRelation("bowl", Relation.INSIDE, "top drawer"))
     assert not truth.holds(SpatialRelation("bowl", Relation.INSIDE, "box"))
@@ -125,8 +142,18 @@ def test_success_checks_on_hand_placed_states(env):
 
 @pytest.mark.parametrize(
     "task_id",
-    ["grasp-bowl", "release-mug", "open-bottom_drawer", "close-box", "open-microwave", "tilt-bottle", "move-mug",
-     "move_on_top-bottle-box", "move_into-toothpaste-mug", "move_in_front-bowl-cabinet"],
+    [
+        "grasp-bowl",
+        "release-mug",
+        "open-bottom_drawer",
+        "close-box",
+        "open-microwave",
+        "tilt-bottle",
+        "move-mug",
+        "move_on_top-bottle-box",
+        "move_into-toothpaste-mug",
+        "move_in_front-bowl-cabinet",
+    ],
 )
 def test_oracle_succeeds(task_id, tmp_path):
     report = run_oracle(task_id, episodes=2, seed=100)

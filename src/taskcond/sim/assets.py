@@ -120,7 +120,11 @@ def _inertial(link: Link) -> str:
     hi = [max(s.xyz[i] + s.half_extents()[i] for s in link.shapes) for i in range(3)]
     d = [max(hi[i] - lo[i], 1e-3) for i in range(3)]
     m = link.mass
-    ixx, iyy, izz = (m / 12 * (d[1] ** 2 + d[2] ** 2), m / 12 * (d[0] ** 2 + d[2] ** 2), m / 12 * (d[0] ** 2 + d[1] ** 2))
+    ixx, iyy, izz = (
+        m / 12 * (d[1] ** 2 + d[2] ** 2),
+        m / 12 * (d[0] ** 2 + d[2] ** 2),
+        m / 12 * (d[0] ** 2 + d[1] ** 2),
+    )
     return (
         f'<inertial><origin xyz="{_fmt(tuple(com))}"/><mass value="{m:.6g}"/>'
         f'<inertia ixx="{ixx:.6g}" iyy="{iyy:.6g}" izz="{izz:.6g}" ixy="0" ixz="0" iyz="0"/></inertial>'
@@ -133,7 +137,8 @@ def _link_xml(link: Link) -> str:
         origin = f'<origin xyz="{_fmt(s.xyz)}" rpy="{_fmt(s.rpy)}"/>'
         parts.append(
             f"<visual>{origin}<geometry>{_geometry(s)}</geometry>"
-            f'<material name="c{_fmt(s.rgba).replace(" ", "_")}"><color rgba="{_fmt(s.rgba)}"/></material></visual>'
+            f'<material name="c{_fmt(s.rgba).replace(" ", "_")}"><color rgba="{_fmt(s.rgba)}"/></material>'
+            "</visual>"
         )
         parts.append(f"<collision>{origin}<geometry>{_geometry(s)}</geometry></collision>")
     parts.append("</link>")
@@ -262,7 +267,9 @@ class VesselSpec:
 
     def interior(self) -> Interior:
         half_h = (self.height - self.base) / 2
-        return Interior("base", (0, 0, self.base + half_h), (self.inner_radius, self.inner_radius, half_h), True)
+        return Interior(
+            "base", (0, 0, self.base + half_h), (self.inner_radius, self.inner_radius, half_h), True
+        )
 
 
 @dataclass(frozen=True)
@@ -336,7 +343,9 @@ class BoxSpec:
 
     def joints(self) -> list[Joint]:
         dx, _, dz = self.size
-        return [Joint("lid_hinge", "revolute", "base", "lid", (dx / 2, 0, dz), (0, 1, 0), 0.0, self.open_angle)]
+        return [
+            Joint("lid_hinge", "revolute", "base", "lid", (dx / 2, 0, dz), (0, 1, 0), 0.0, self.open_angle)
+        ]
 
     def interior(self) -> Interior:
         dx, dy, dz = self.size
@@ -383,10 +392,18 @@ class CabinetSpec:
             Shape("box", (t, w, h), (d - t / 2, 0, h / 2), rgba=c),
             Shape("box", (0.015, self.width - 0.01, h + 0.015), (-0.0075, 0, h / 2), rgba=self.rgba),
             Shape("box", (0.02, 0.02, self.handle_length), (-s, 0, h / 2), rgba=(0.15, 0.15, 0.15, 1.0)),
-            Shape("box", (s, 0.012, 0.012), (-s / 2, 0, h / 2 + self.handle_length / 2 - 0.006),
-                  rgba=(0.15, 0.15, 0.15, 1.0)),
-            Shape("box", (s, 0.012, 0.012), (-s / 2, 0, h / 2 - self.handle_length / 2 + 0.006),
-                  rgba=(0.15, 0.15, 0.15, 1.0)),
+            Shape(
+                "box",
+                (s, 0.012, 0.012),
+                (-s / 2, 0, h / 2 + self.handle_length / 2 - 0.006),
+                rgba=(0.15, 0.15, 0.15, 1.0),
+            ),
+            Shape(
+                "box",
+                (s, 0.012, 0.012),
+                (-s / 2, 0, h / 2 - self.handle_length / 2 + 0.006),
+                rgba=(0.15, 0.15, 0.15, 1.0),
+            ),
         )
         return Link(name, shapes, self.drawer_mass)
 
@@ -407,10 +424,26 @@ class CabinetSpec:
     def joints(self) -> list[Joint]:
         z_bottom, z_top = self.drawer_bottoms()
         return [
-            Joint("bottom_slide", "prismatic", "carcass", "bottom_drawer", (0.0, 0, z_bottom), (-1, 0, 0), 0.0,
-                  self.travel),
-            Joint("top_slide", "prismatic", "carcass", "top_drawer", (0.0, 0, z_top), (-1, 0, 0), 0.0,
-                  self.travel),
+            Joint(
+                "bottom_slide",
+                "prismatic",
+                "carcass",
+                "bottom_drawer",
+                (0.0, 0, z_bottom),
+                (-1, 0, 0),
+                0.0,
+                self.travel,
+            ),
+            Joint(
+                "top_slide",
+                "prismatic",
+                "carcass",
+                "top_drawer",
+                (0.0, 0, z_top),
+                (-1, 0, 0),
+                0.0,
+                self.travel,
+            ),
         ]
 
     def interiors(self) -> dict[str, Interior]:
@@ -446,16 +479,28 @@ class MicrowaveSpec:
             Shape("box", (d, t, h), (d / 2, -w / 2 + t / 2, h / 2), rgba=self.rgba),
             Shape("box", (t, w, h), (d - t / 2, 0, h / 2), rgba=self.rgba),
         )
-        fx, fy, fz = self.fin
+        _, fy, fz = self.fin
         door = (
             Shape("box", (self.door, w, h), (-self.door / 2, w / 2, h / 2), rgba=(0.12, 0.12, 0.14, 1.0)),
-            Shape("box", self.fin, (-self.door / 2, w - fy / 2 - 0.01, h + fz / 2), rgba=(0.7, 0.7, 0.7, 1.0)),
+            Shape(
+                "box", self.fin, (-self.door / 2, w - fy / 2 - 0.01, h + fz / 2), rgba=(0.7, 0.7, 0.7, 1.0)
+            ),
         )
         return [Link("shell", shell, 0.0), Link("door", door, self.door_mass)]
 
     def joints(self) -> list[Joint]:
-        return [Joint("door_hinge", "revolute", "shell", "door", (0.0, -self.width / 2, 0.0), (0, 0, 1), 0.0,
-                      self.open_angle)]
+        return [
+            Joint(
+                "door_hinge",
+                "revolute",
+                "shell",
+                "door",
+                (0.0, -self.width / 2, 0.0),
+                (0, 0, 1),
+                0.0,
+                self.open_angle,
+            )
+        ]
 
     def interior(self) -> Interior:
         w, d, h, t = self.width, self.depth, self.height, self.wall
@@ -474,7 +519,9 @@ class TableSpec:
         return [Link("base", (Shape("box", self.size, (0, 0, -self.size[2] / 2), rgba=self.rgba),), 0.0)]
 
 
-AssetSpec = BottleSpec | VesselSpec | BlockSpec | SpatulaSpec | BoxSpec | CabinetSpec | MicrowaveSpec | TableSpec
+AssetSpec = (
+    BottleSpec | VesselSpec | BlockSpec | SpatulaSpec | BoxSpec | CabinetSpec | MicrowaveSpec | TableSpec
+)
 
 
 def build_asset(name: str, spec: AssetSpec) -> Asset:

@@ -70,13 +70,26 @@ class Franka:
         self.lower = np.array([i[8] for i in info])
         self.upper = np.array([i[9] for i in info])
         gear = p.createConstraint(
-            self.body, FINGER_JOINTS[0], self.body, FINGER_JOINTS[1], p.JOINT_GEAR, (1, 0, 0), (0, 0, 0),
-            (0, 0, 0), physicsClientId=client,
+            self.body,
+            FINGER_JOINTS[0],
+            self.body,
+            FINGER_JOINTS[1],
+            p.JOINT_GEAR,
+            (1, 0, 0),
+            (0, 0, 0),
+            (0, 0, 0),
+            physicsClientId=client,
         )
         p.changeConstraint(gear, gearRatio=-1, erp=0.1, maxForce=50, physicsClientId=client)
         for link in FINGER_JOINTS:
-            p.changeDynamics(self.body, link, lateralFriction=1.5, spinningFriction=0.003, frictionAnchor=True,
-                             physicsClientId=client)
+            p.changeDynamics(
+                self.body,
+                link,
+                lateralFriction=1.5,
+                spinningFriction=0.003,
+                frictionAnchor=True,
+                physicsClientId=client,
+            )
         self._ik_bias = np.array(p.getDynamicsInfo(self.body, -1, physicsClientId=client)[3])
         self.gripper_closed = False
         self.reset(HOME)
@@ -118,8 +131,13 @@ class Franka:
         seed = self.joint_positions() if seed is None else np.asarray(seed, dtype=float)
         full = [*seed.tolist(), 0.0, 0.0]
         q = p.calculateInverseKinematics(
-            self.body, EE_LINK, [float(x) for x in np.asarray(position) - self._ik_bias], [float(x) for x in orientation],
-            currentPositions=full, maxNumIterations=100, residualThreshold=1e-5,
+            self.body,
+            EE_LINK,
+            [float(x) for x in np.asarray(position) - self._ik_bias],
+            [float(x) for x in orientation],
+            currentPositions=full,
+            maxNumIterations=100,
+            residualThreshold=1e-5,
             physicsClientId=self.client,
         )
         return np.clip(np.array(q[:7]), self.lower, self.upper)
@@ -139,12 +157,22 @@ class Franka:
         """Position targets: arm joints ``q`` (7,) rad; gripper closed (pads pushed together with
         :data:`FINGER_FORCE`) or open."""
         p.setJointMotorControlArray(
-            self.body, ARM_JOINTS, p.POSITION_CONTROL, targetPositions=q.tolist(), forces=ARM_FORCES,
-            positionGains=[0.1] * 7, physicsClientId=self.client,
+            self.body,
+            ARM_JOINTS,
+            p.POSITION_CONTROL,
+            targetPositions=q.tolist(),
+            forces=ARM_FORCES,
+            positionGains=[0.1] * 7,
+            physicsClientId=self.client,
         )
         self.gripper_closed = closed
         target = 0.0 if closed else FINGER_OPEN
         p.setJointMotorControlArray(
-            self.body, FINGER_JOINTS, p.POSITION_CONTROL, targetPositions=[target, target],
-            forces=[FINGER_FORCE, FINGER_FORCE], positionGains=[0.05, 0.05], physicsClientId=self.client,
+            self.body,
+            FINGER_JOINTS,
+            p.POSITION_CONTROL,
+            targetPositions=[target, target],
+            forces=[FINGER_FORCE, FINGER_FORCE],
+            positionGains=[0.05, 0.05],
+            physicsClientId=self.client,
         )

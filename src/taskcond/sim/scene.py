@@ -54,27 +54,35 @@ class SceneConfig:
     ``yaw_noise`` (rad) are the half-widths of the uniform perturbation applied at each seeded reset.
     """
 
-    table: TableSpec = TableSpec()
-    cabinet: CabinetSpec = CabinetSpec()
+    table: TableSpec = field(default_factory=TableSpec)
+    cabinet: CabinetSpec = field(default_factory=CabinetSpec)
     cabinet_origin: tuple[float, float] = (0.62, 0.40)
-    box: BoxSpec = BoxSpec()
+    box: BoxSpec = field(default_factory=BoxSpec)
     box_origin: tuple[float, float] = (0.58, -0.13)
-    microwave: MicrowaveSpec = MicrowaveSpec()
+    microwave: MicrowaveSpec = field(default_factory=MicrowaveSpec)
     microwave_origin: tuple[float, float] = (0.55, -0.56)
     free_objects: dict[str, tuple[AssetSpec, Placement]] = field(
         default_factory=lambda: {
             "bottle": (BottleSpec(), Placement((0.38, 0.04))),
             "bowl": (VesselSpec(), Placement((0.42, 0.17))),
             "mug": (
-                VesselSpec(outer_radius=0.035, height=0.09, handle=True, mass=0.2, rgba=(0.8, 0.25, 0.2, 1.0)),
+                VesselSpec(
+                    outer_radius=0.035, height=0.09, handle=True, mass=0.2, rgba=(0.8, 0.25, 0.2, 1.0)
+                ),
                 Placement((0.34, -0.26)),
             ),
             "toothpaste": (BlockSpec(), Placement((0.30, 0.11))),
             "spatula": (SpatulaSpec(), Placement((0.24, -0.07))),
             "cube": (BlockSpec((0.04, 0.04, 0.04), 0.1, (0.85, 0.15, 0.15, 1.0)), Placement((0.22, 0.32))),
             "can": (
-                BottleSpec(radius=0.03, height=0.09, neck_radius=0.028, neck_height=0.01, mass=0.2,
-                           rgba=(0.2, 0.3, 0.8, 1.0)),
+                BottleSpec(
+                    radius=0.03,
+                    height=0.09,
+                    neck_radius=0.028,
+                    neck_height=0.01,
+                    mass=0.2,
+                    rgba=(0.2, 0.3, 0.8, 1.0),
+                ),
                 Placement((0.20, -0.45)),
             ),
         }
@@ -140,20 +148,36 @@ class KitchenScene:
         self.links["box"] = -1
         self.joints["box"] = ContainerJoint("box", self.bodies["box"], 0, 0.0, cfg.box.open_angle, 0.5)
         self.links["microwave"] = -1
-        self.joints["microwave"] = ContainerJoint("microwave", self.bodies["microwave"], 0, 0.0,
-                                                  cfg.microwave.open_angle, 0.5)
+        self.joints["microwave"] = ContainerJoint(
+            "microwave", self.bodies["microwave"], 0, 0.0, cfg.microwave.open_angle, 0.5
+        )
         friction = {"bottom drawer": 3.0, "top drawer": 3.0, "box": 0.01, "microwave": 0.3}
         for name, joint in self.joints.items():
-            p.setJointMotorControl2(joint.body_id, joint.joint_index, p.VELOCITY_CONTROL, targetVelocity=0,
-                                    force=friction[name], physicsClientId=self.client)
-            p.changeDynamics(joint.body_id, joint.joint_index, lateralFriction=0.6, physicsClientId=self.client)
+            p.setJointMotorControl2(
+                joint.body_id,
+                joint.joint_index,
+                p.VELOCITY_CONTROL,
+                targetVelocity=0,
+                force=friction[name],
+                physicsClientId=self.client,
+            )
+            p.changeDynamics(
+                joint.body_id, joint.joint_index, lateralFriction=0.6, physicsClientId=self.client
+            )
 
         for name, (spec, place) in cfg.free_objects.items():
             self._load(name, spec, (*place.xy, 0.0), fixed=False)
             self.links[name] = -1
-            p.changeDynamics(self.bodies[name], -1, lateralFriction=1.0, spinningFriction=0.002,
-                             rollingFriction=0.0001, restitution=0.0,
-                             activationState=p.ACTIVATION_STATE_ENABLE_SLEEPING, physicsClientId=self.client)
+            p.changeDynamics(
+                self.bodies[name],
+                -1,
+                lateralFriction=1.0,
+                spinningFriction=0.002,
+                rollingFriction=0.0001,
+                restitution=0.0,
+                activationState=p.ACTIVATION_STATE_ENABLE_SLEEPING,
+                physicsClientId=self.client,
+            )
         self.robot = Franka(self.client)
         self.free_objects = tuple(cfg.free_objects)
 
@@ -168,11 +192,20 @@ class KitchenScene:
     # ----------------------------------------------------------------------------------- description
     def description(self) -> SceneDescription:
         """The :class:`SceneDescription` read by the environment-information layer (§III-A.2)."""
-        kinds = {"table": "furniture", "cabinet": "furniture", "box": "container", "microwave": "container",
-                 "top drawer": "container", "bottom drawer": "container", "bowl": "container",
-                 "mug": "container"}
-        bodies = [NamedBody(n, self.bodies[n], self.links.get(n, -1), kinds.get(n, "object"))  # type: ignore[arg-type]
-                  for n in self.bodies]
+        kinds = {
+            "table": "furniture",
+            "cabinet": "furniture",
+            "box": "container",
+            "microwave": "container",
+            "top drawer": "container",
+            "bottom drawer": "container",
+            "bowl": "container",
+            "mug": "container",
+        }
+        bodies = [
+            NamedBody(n, self.bodies[n], self.links.get(n, -1), kinds.get(n, "object"))  # type: ignore[arg-type]
+            for n in self.bodies
+        ]
         bodies.append(NamedBody("robot", self.robot.body, -1, "robot"))
         return SceneDescription(self.client, bodies, list(self.joints.values()), [self.robot.spec])
 
@@ -217,7 +250,9 @@ class KitchenScene:
             state = p.getLinkState(body, link, computeForwardKinematics=True, physicsClientId=self.client)
             pos, orn = state[4], state[5]
         rot = np.array(p.getMatrixFromQuaternion(orn)).reshape(3, 3)
-        return WorldInterior(np.asarray(pos) + rot @ np.array(it.center), np.array(it.half_extents), rot, it.round)
+        return WorldInterior(
+            np.asarray(pos) + rot @ np.array(it.center), np.array(it.half_extents), rot, it.round
+        )
 
     def set_joint(self, container: str, fraction: float) -> None:
         """Put a container at ``fraction`` of its range, at rest (episode reset only)."""

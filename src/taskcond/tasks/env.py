@@ -16,7 +16,7 @@ an object leaving the workspace, deep interpenetration) terminates the episode w
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, ClassVar
 
 import gymnasium as gym
 import numpy as np
@@ -47,10 +47,17 @@ class KitchenEnv(gym.Env):
         control_hz: actions per simulated second.
     """
 
-    metadata = {"render_modes": ["rgb_array"], "render_fps": 30}
+    metadata: ClassVar[dict[str, Any]] = {"render_modes": ["rgb_array"], "render_fps": 30}
 
-    def __init__(self, task: Task, seed: int | None = None, render_mode: str | None = None, gui: bool = False,
-                 config: SceneConfig | None = None, control_hz: int = 30) -> None:
+    def __init__(
+        self,
+        task: Task,
+        seed: int | None = None,
+        render_mode: str | None = None,
+        gui: bool = False,
+        config: SceneConfig | None = None,
+        control_hz: int = 30,
+    ) -> None:
         if render_mode not in (None, "rgb_array"):
             raise ValueError(f"unknown render_mode {render_mode!r}; valid: 'rgb_array', None")
         self.task = task
@@ -68,21 +75,27 @@ class KitchenEnv(gym.Env):
         self._seed = seed
         n = len(self.object_names)
         box = spaces.Box
-        self.observation_space = spaces.Dict({
-            "ee_position": box(-2, 2, (3,), np.float64),
-            "ee_orientation": box(-1, 1, (4,), np.float64),
-            "gripper_width": box(0, 0.1, (1,), np.float64),
-            "joint_positions": box(-4, 4, (7,), np.float64),
-            "object_poses": box(-np.inf, np.inf, (n, 7), np.float64),
-            "container_open": box(-1, 2, (len(ARTICULATED),), np.float64),
-            "target": box(-2, 2, (3,), np.float64),
-        })
-        self.action_space = box(np.array([-1, -1, -0.2, -1, -1, -1, -1, 0.0]),
-                                np.array([1.2, 1, 1.2, 1, 1, 1, 1, 1.0]), dtype=np.float64)
+        self.observation_space = spaces.Dict(
+            {
+                "ee_position": box(-2, 2, (3,), np.float64),
+                "ee_orientation": box(-1, 1, (4,), np.float64),
+                "gripper_width": box(0, 0.1, (1,), np.float64),
+                "joint_positions": box(-4, 4, (7,), np.float64),
+                "object_poses": box(-np.inf, np.inf, (n, 7), np.float64),
+                "container_open": box(-1, 2, (len(ARTICULATED),), np.float64),
+                "target": box(-2, 2, (3,), np.float64),
+            }
+        )
+        self.action_space = box(
+            np.array([-1, -1, -0.2, -1, -1, -1, -1, 0.0]),
+            np.array([1.2, 1, 1.2, 1, 1, 1, 1, 1.0]),
+            dtype=np.float64,
+        )
 
     # ------------------------------------------------------------------------------------------ gym API
-    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None
-              ) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
+    def reset(
+        self, *, seed: int | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
         """Randomize the free objects' poses (seeded), close every container, put the arm home, then
         apply the task's initial state."""
         if seed is None and self._seed is not None:
@@ -129,8 +142,9 @@ class KitchenEnv(gym.Env):
         w, h = RENDER_SIZE
         view = p.computeViewMatrix((-0.45, 0.0, 0.85), (0.5, 0.0, 0.05), (0, 0, 1))
         proj = p.computeProjectionMatrixFOV(60, w / h, 0.05, 4.0)
-        img = p.getCameraImage(w, h, view, proj, renderer=p.ER_TINY_RENDERER,
-                               physicsClientId=self.scene.client)[2]
+        img = p.getCameraImage(
+            w, h, view, proj, renderer=p.ER_TINY_RENDERER, physicsClientId=self.scene.client
+        )[2]
         return np.asarray(img, dtype=np.uint8).reshape(h, w, 4)[:, :, :3].copy()
 
     def close(self) -> None:
@@ -182,7 +196,9 @@ class KitchenEnv(gym.Env):
         if not np.all(np.isfinite(self.robot.joint_positions())):
             return "nan_state"
         for name in self.object_names:
-            pos = np.array(p.getBasePositionAndOrientation(self.scene.bodies[name], physicsClientId=client)[0])
+            pos = np.array(
+                p.getBasePositionAndOrientation(self.scene.bodies[name], physicsClientId=client)[0]
+            )
             if not np.all(np.isfinite(pos)):
                 return "nan_state"
             if np.any(pos < WORKSPACE[0]) or np.any(pos > WORKSPACE[1]):

@@ -48,8 +48,9 @@ class GroundTruth:
     def com(self, name: str) -> np.ndarray:
         """Centre (3,) m, world: centre of mass of a free object, AABB centre of anything else."""
         if name in self.scene.free_objects:
-            return np.array(p.getBasePositionAndOrientation(self.scene.bodies[name],
-                                                            physicsClientId=self.scene.client)[0])
+            return np.array(
+                p.getBasePositionAndOrientation(self.scene.bodies[name], physicsClientId=self.scene.client)[0]
+            )
         lo, hi = self.scene.aabb(name)
         return (lo + hi) / 2
 
@@ -114,8 +115,11 @@ class GroundTruth:
     def holds(self, pred: Predicate) -> bool:
         """Whether a condition holds in the current simulator state."""
         if isinstance(pred, GripperState):
-            return self.grasped() is None and not self.touching_any() if pred.obj is None else self.grasping(
-                pred.obj)
+            return (
+                self.grasped() is None and not self.touching_any()
+                if pred.obj is None
+                else self.grasping(pred.obj)
+            )
         if isinstance(pred, ContainerState):
             return self.is_open(pred.container) if pred.is_open else self.is_closed(pred.container)
         assert isinstance(pred, SpatialRelation)

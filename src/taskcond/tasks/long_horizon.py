@@ -34,8 +34,14 @@ class LongHorizonTask(Task):
         final: conditions that mark success.
     """
 
-    def __init__(self, task_id: str, description: str, steps: tuple[PrimitiveTask, ...],
-                 initial_open: dict[str, float], final: tuple[Predicate, ...]) -> None:
+    def __init__(
+        self,
+        task_id: str,
+        description: str,
+        steps: tuple[PrimitiveTask, ...],
+        initial_open: dict[str, float],
+        final: tuple[Predicate, ...],
+    ) -> None:
         objects: list[str] = []
         for step in steps:
             objects.extend(o for o in step.objects if o not in objects)
@@ -43,8 +49,9 @@ class LongHorizonTask(Task):
         self.initial_open = initial_open
         self.final = final
         self.max_steps = sum(s.max_steps for s in steps)
-        self.info = TaskInfo(task_id, "long-horizon", tuple(s.info.task_name for s in steps), tuple(objects),
-                             description)
+        self.info = TaskInfo(
+            task_id, "long-horizon", tuple(s.info.task_name for s in steps), tuple(objects), description
+        )
 
     def setup(self, env: KitchenEnv, rng: np.random.Generator) -> None:
         for name, fraction in self.initial_open.items():
@@ -64,7 +71,8 @@ def _inside(a: str, b: str) -> SpatialRelation:
 
 def _put_into_closed(task_id: str, obj: str, description: str) -> LongHorizonTask:
     return LongHorizonTask(
-        task_id, description,
+        task_id,
+        description,
         (Grasp(obj), MoveInto(obj, "box"), Release(obj), Close("box")),
         {"box": 1.0},
         (_inside(obj, "box"), ContainerState("box", False), GripperState(None)),
@@ -73,7 +81,8 @@ def _put_into_closed(task_id: str, obj: str, description: str) -> LongHorizonTas
 
 def _drawer_swap(task_id: str, target: str, other: str, description: str) -> LongHorizonTask:
     return LongHorizonTask(
-        task_id, description,
+        task_id,
+        description,
         (Close(other), Open(target), Grasp("bowl"), MoveInto("bowl", target), Release("bowl"), Close(target)),
         {other: 1.0},
         (_inside("bowl", target), ContainerState(target, False), ContainerState(other, False)),
@@ -84,18 +93,37 @@ def long_horizon_tasks() -> list[LongHorizonTask]:
     """LHT1, LHT2, LHT3, LHT1*, LHT2* (paper Table I)."""
     return [
         _put_into_closed("LHT1", "bottle", "Pick up a bottle, put the bottle into the box, close the box."),
-        _drawer_swap("LHT2", "bottom drawer", "top drawer",
-                     "To put the bowl into the bottom drawer of the cabinet, first close the top drawer, then "
-                     "open the bottom drawer, put the bowl into the bottom drawer and then close the drawer."),
+        _drawer_swap(
+            "LHT2",
+            "bottom drawer",
+            "top drawer",
+            "To put the bowl into the bottom drawer of the cabinet, first close the top drawer, then "
+            "open the bottom drawer, put the bowl into the bottom drawer and then close the drawer.",
+        ),
         LongHorizonTask(
-            "LHT3", "Hold a mug up, place it on the table, and put toothpaste into the mug.",
-            (Grasp("mug"), MoveOnTop("mug", "table"), Release("mug"), Grasp("toothpaste"),
-             MoveInto("toothpaste", "mug"), Release("toothpaste")),
+            "LHT3",
+            "Hold a mug up, place it on the table, and put toothpaste into the mug.",
+            (
+                Grasp("mug"),
+                MoveOnTop("mug", "table"),
+                Release("mug"),
+                Grasp("toothpaste"),
+                MoveInto("toothpaste", "mug"),
+                Release("toothpaste"),
+            ),
             {},
-            (SpatialRelation("mug", Relation.ABOVE, "table"), _inside("toothpaste", "mug"), GripperState(None)),
+            (
+                SpatialRelation("mug", Relation.ABOVE, "table"),
+                _inside("toothpaste", "mug"),
+                GripperState(None),
+            ),
         ),
         _put_into_closed("LHT1*", "bowl", "Pick up a bowl, put the bowl into the box, and close the box."),
-        _drawer_swap("LHT2*", "top drawer", "bottom drawer",
-                     "To put the bowl into the upper drawer of the cabinet, first close the bottom drawer, then "
-                     "open the upper drawer, put the bowl into the upper drawer and then close the drawer."),
+        _drawer_swap(
+            "LHT2*",
+            "top drawer",
+            "bottom drawer",
+            "To put the bowl into the upper drawer of the cabinet, first close the bottom drawer, then "
+            "open the upper drawer, put the bowl into the upper drawer and then close the drawer.",
+        ),
     ]

@@ -9,7 +9,6 @@ from collections import Counter
 from dataclasses import dataclass, field
 from pathlib import Path
 
-
 from taskcond.sim.recording import VideoRecorder
 from taskcond.tasks.env import KitchenEnv
 from taskcond.tasks.registry import make
@@ -46,8 +45,9 @@ class OracleReport:
         return self.successes / self.episodes if self.episodes else 0.0
 
 
-def run_episode(env: KitchenEnv, seed: int, recorder: VideoRecorder | None = None) -> tuple[bool, str | None,
-                                                                                        Trajectory, int]:
+def run_episode(
+    env: KitchenEnv, seed: int, recorder: VideoRecorder | None = None
+) -> tuple[bool, str | None, Trajectory, int]:
     """Reset with ``seed`` and execute the task's oracle; returns (success, failure reason, executed
     trajectory, control steps)."""
     env.reset(seed=seed)
@@ -75,8 +75,13 @@ def run_episode(env: KitchenEnv, seed: int, recorder: VideoRecorder | None = Non
     return False, "not_succeeded", Trajectory.concatenate(executed), steps
 
 
-def run_oracle(task_id: str, episodes: int = 100, seed: int = 0, video: str | Path | None = None,
-               keep_trajectories: bool = False) -> OracleReport:
+def run_oracle(
+    task_id: str,
+    episodes: int = 100,
+    seed: int = 0,
+    video: str | Path | None = None,
+    keep_trajectories: bool = False,
+) -> OracleReport:
     """Run the oracle of ``task_id`` on ``episodes`` seeded episodes (seeds ``seed``, ``seed + 1``, ...).
 
     ``video``: path (.mp4/.gif) to record the first episode to.
@@ -103,8 +108,9 @@ def run_oracle(task_id: str, episodes: int = 100, seed: int = 0, video: str | Pa
     finally:
         env.close()
     elapsed = time.perf_counter() - start
-    return OracleReport(task_id, episodes, successes, total_steps / max(elapsed, 1e-9), dict(failures),
-                        trajectories)
+    return OracleReport(
+        task_id, episodes, successes, total_steps / max(elapsed, 1e-9), dict(failures), trajectories
+    )
 
 
 __all__ = ["OracleReport", "run_episode", "run_oracle"]

@@ -71,7 +71,12 @@ def list_tasks() -> list[TaskInfo]:
     return [_TASKS[t]().info for t in _TASKS]
 
 
-def make(task_id: str, seed: int | None = None, render_mode: str | None = None, gui: bool = False,
-         config: SceneConfig | None = None) -> KitchenEnv:
+def make(
+    task_id: str,
+    seed: int | None = None,
+    render_mode: str | None = None,
+    gui: bool = False,
+    config: SceneConfig | None = None,
+) -> KitchenEnv:
     """A :class:`KitchenEnv` for ``task_id`` (see :func:`task_ids`); ``seed`` seeds its first reset."""
     return KitchenEnv(get_task(task_id), seed=seed, render_mode=render_mode, gui=gui, config=config)

@@ -70,9 +70,10 @@ def current(env: KitchenEnv) -> tuple[np.ndarray, np.ndarray, float]:
     return ee.position, ee.orientation, CLOSED if env.robot.gripper_closed else OPEN
 
 
-def transit(env: KitchenEnv, goal: np.ndarray, orientation: np.ndarray, gripper: float,
-            z: float = SAFE_Z) -> list[Waypoint]:
-    """Rise to ``z`` (or stay higher), travel over ``goal`` while turning to ``orientation``, go down to it."""
+def transit(
+    env: KitchenEnv, goal: np.ndarray, orientation: np.ndarray, gripper: float, z: float = SAFE_Z
+) -> list[Waypoint]:
+    """Rise to ``z`` (or stay higher), travel over ``goal`` turning to ``orientation``, go down to it."""
     pos, orn, _ = current(env)
     top = max(z, float(pos[2]))
     return [
@@ -178,10 +179,7 @@ def lid_open(env: KitchenEnv, to_angle: float = 1.72) -> list[Waypoint]:
     orn = np.array(forward())
     start = np.array([-(spec.size[0] + spec.lip[0] / 2), 0.0, -0.014])
     pre = hinge + start - np.array([0.10, 0, 0])
-    arc = [
-        Waypoint(hinge + _rot_y(a) @ start, orn, CLOSED, 0.12)
-        for a in np.linspace(0.05, to_angle, 24)
-    ]
+    arc = [Waypoint(hinge + _rot_y(a) @ start, orn, CLOSED, 0.12) for a in np.linspace(0.05, to_angle, 24)]
     end = arc[-1].position
     return [
         *transit(env, pre, orn, CLOSED),
@@ -200,14 +198,15 @@ def lid_close(env: KitchenEnv, to_angle: float = 0.6) -> list[Waypoint]:
     orn = np.array(top_down())
     contact = np.array([-(spec.size[0] - 0.01), 0.0, spec.lid + 0.035])
     first = hinge + _rot_y(angle) @ contact
-    arc = [
-        Waypoint(hinge + _rot_y(a) @ contact, orn, CLOSED, 0.12)
-        for a in np.linspace(angle, to_angle, 20)
-    ]
+    arc = [Waypoint(hinge + _rot_y(a) @ contact, orn, CLOSED, 0.12) for a in np.linspace(angle, to_angle, 20)]
     up = arc[-1].position + np.array([-0.05, 0, 0.10])
     over = hinge[2] + spec.size[0] + 0.10
-    return [*transit(env, first + np.array([0, 0, 0.10]), orn, CLOSED, z=over), Waypoint(first, orn, CLOSED, 0.8),
-            *arc, Waypoint(up, orn, CLOSED, 0.8)]
+    return [
+        *transit(env, first + np.array([0, 0, 0.10]), orn, CLOSED, z=over),
+        Waypoint(first, orn, CLOSED, 0.8),
+        *arc,
+        Waypoint(up, orn, CLOSED, 0.8),
+    ]
 
 
 def door_motion(env: KitchenEnv, to_angle: float) -> list[Waypoint]:

@@ -63,8 +63,9 @@ class Trajectory:
         )
 
     @staticmethod
-    def from_waypoints(start: np.ndarray, start_orientation: np.ndarray, waypoints: list[Waypoint],
-                       dt: float) -> Trajectory:
+    def from_waypoints(
+        start: np.ndarray, start_orientation: np.ndarray, waypoints: list[Waypoint], dt: float
+    ) -> Trajectory:
         """Sample straight-line, smooth-step-timed segments through ``waypoints`` every ``dt`` s, starting at
         ``start`` (3,) / ``start_orientation`` (4,); orientations are slerped."""
         pos, orn = np.asarray(start, float), np.asarray(start_orientation, float)
