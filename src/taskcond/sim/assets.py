@@ -225,7 +225,7 @@ class VesselSpec:
     ``handle`` adds a mug handle on the -y side.
     """
 
-    outer_radius: float = 0.037
+    outer_radius: float = 0.034
     height: float = 0.045
     wall: float = 0.006
     base: float = 0.008

@@ -63,8 +63,8 @@ class SceneConfig:
     microwave_origin: tuple[float, float] = (0.55, -0.56)
     free_objects: dict[str, tuple[AssetSpec, Placement]] = field(
         default_factory=lambda: {
-            "bottle": (BottleSpec(), Placement((0.38, 0.04))),
-            "bowl": (VesselSpec(), Placement((0.42, 0.17))),
+            "bottle": (BottleSpec(), Placement((0.40, -0.02))),
+            "bowl": (VesselSpec(), Placement((0.42, 0.19))),
             "mug": (
                 VesselSpec(
                     outer_radius=0.035, height=0.09, handle=True, mass=0.2, rgba=(0.8, 0.25, 0.2, 1.0)

@@ -49,7 +49,7 @@ class GraspPose:
 
 GRASPS: dict[str, GraspPose] = {
     "bottle": GraspPose(0.07, 0.0, 0.06),
-    "bowl": GraspPose(0.028, 0.0, 0.074),
+    "bowl": GraspPose(0.022, 0.0, 0.068),
     "mug": GraspPose(0.06, math.pi / 2, 0.07),
     "toothpaste": GraspPose(0.075, math.pi / 2, 0.022),
     "spatula": GraspPose(0.018, 0.0, 0.022),
