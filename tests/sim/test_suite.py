@@ -136,7 +136,7 @@ def test_success_checks_on_hand_placed_states(env):
     scene.place("mug", (lo[0] - 0.08, (lo[1] + hi[1]) / 2), 0.0)
     env.settle(0.1)
     assert truth.holds(SpatialRelation("mug", Relation.IN_FRONT_OF, "box"))
-    assert not truth.holds(SpatialRelation("bottle", Relation.IN_FRONT_OF, "box"))
+    assert not truth.holds(SpatialRelation("cube", Relation.IN_FRONT_OF, "box"))
     assert truth.holds(GripperState(None)) and not truth.holds(GripperState("bottle"))
 
 
