@@ -15,7 +15,14 @@ from taskcond.conditions import (
     TaskCondition,
     parse_predicate,
 )
-from taskcond.primitives import PRIMITIVES, ParsedTask, Primitive, TaskNameError, parse_task, task_for_condition
+from taskcond.primitives import (
+    PRIMITIVES,
+    ParsedTask,
+    Primitive,
+    TaskNameError,
+    parse_task,
+    task_for_condition,
+)
 
 __version__ = "0.1.0"
 

@@ -276,7 +276,10 @@ class TaskCondition:
     def to_text(self, include_collisions: bool = True) -> str:
         """The paper's Listing 1 format. Empty condition lists are written as a ``none`` line."""
         lines = [f"Task name: {self.task_name}", f"Relevant objects: {', '.join(self.relevant_objects)}"]
-        for title, preds in (("Pre-conditions", self.pre_conditions), ("Post-conditions", self.post_conditions)):
+        for title, preds in (
+            ("Pre-conditions", self.pre_conditions),
+            ("Post-conditions", self.post_conditions),
+        ):
             lines.append(f"{title}:")
             lines.extend(f"  {p}" for p in preds) if preds else lines.append("  none")
         if include_collisions:
@@ -333,7 +336,9 @@ class TaskCondition:
             raise ConditionError("missing 'Relevant objects:' line")
         missing = {"pre", "post"} - seen_sections
         if missing:
-            raise ConditionError(f"missing {' and '.join(sorted(f'{m.capitalize()}-conditions:' for m in missing))}")
+            raise ConditionError(
+                f"missing {' and '.join(sorted(f'{m.capitalize()}-conditions:' for m in missing))}"
+            )
         return cls(name, tuple(objects), tuple(sections["pre"]), tuple(sections["post"]), tuple(collisions))
 
     # ------------------------------------------------------------------------------------- JSON format

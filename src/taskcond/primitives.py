@@ -79,7 +79,9 @@ def _fill(pattern: str, objects: tuple[str, ...] | list[str]) -> str:
 PRIMITIVES: dict[str, Primitive] = {
     p.id: p
     for p in (
-        Primitive("grasp", "Grasp", "grasp A", ("pick up A", "pick A up", "pick A", "grab A", "hold A up", "hold A")),
+        Primitive(
+            "grasp", "Grasp", "grasp A", ("pick up A", "pick A up", "pick A", "grab A", "hold A up", "hold A")
+        ),
         Primitive("release", "Release", "release A", ("let go of A", "drop A", "put down A", "put A down")),
         Primitive("open", "Open", "open A"),
         Primitive("close", "Close", "close A", ("shut A",)),
@@ -90,8 +92,15 @@ PRIMITIVES: dict[str, Primitive] = {
             "move_on_top",
             "MoveOnTop",
             "move A on top of B",
-            ("put A on top of B", "place A on top of B", "place A onto B", "put A onto B", "place A on B",
-             "put A on B", "move A onto B"),
+            (
+                "put A on top of B",
+                "place A on top of B",
+                "place A onto B",
+                "put A onto B",
+                "place A on B",
+                "put A on B",
+                "move A onto B",
+            ),
             2,
         ),
         Primitive(
@@ -177,12 +186,15 @@ def parse_task(name: str) -> ParsedTask:
         m = regex.match(canon)
         if m is not None:
             return _parsed(name, prim, m)
-    verbs = sorted({p.verb for p in PRIMITIVES.values()} | {a.split()[0] for p in PRIMITIVES.values()
-                                                             for a in p.aliases})
+    verbs = sorted(
+        {p.verb for p in PRIMITIVES.values()} | {a.split()[0] for p in PRIMITIVES.values() for a in p.aliases}
+    )
     first = canon.split()[0]
     if first not in verbs:
         raise TaskNameError(f"unknown verb {first!r} in {name!r}; valid verbs: {', '.join(verbs)}")
-    same_verb = [pat for p in PRIMITIVES.values() for pat in (p.pattern, *p.aliases) if pat.split()[0] == first]
+    same_verb = [
+        pat for p in PRIMITIVES.values() for pat in (p.pattern, *p.aliases) if pat.split()[0] == first
+    ]
     raise TaskNameError(
         f"{name!r} does not match a task pattern (wrong number of objects?); "
         f"patterns for {first!r}: {'; '.join(same_verb)}"
@@ -220,7 +232,11 @@ def task_for_condition(pred: Predicate, grasped: str | None = None) -> str | Non
         return None
     if pred.relation is Relation.BELOW:
         return PRIMITIVES["move_on_top"].task_name(pred.reference, pred.subject)
-    target = {Relation.INSIDE: "move_into", Relation.ABOVE: "move_on_top", Relation.IN_FRONT_OF: "move_in_front"}
+    target = {
+        Relation.INSIDE: "move_into",
+        Relation.ABOVE: "move_on_top",
+        Relation.IN_FRONT_OF: "move_in_front",
+    }
     return PRIMITIVES[target[pred.relation]].task_name(pred.subject, pred.reference)
 
 

@@ -1,0 +1,316 @@
+"""Task-condition generation and generalization with an LLM (paper §III-B, §III-C, Listings 2–4).
+
+Two separate chats answer for one task name, as in the paper: one gives the relevant objects, spatial
+relations and allowed collisions, the other the object states (gripper and containers). Objects are
+replaced by letters (``move A into B``) in the prompts and mapped back in the answers. The two answers are
+merged into one :class:`~taskcond.conditions.TaskCondition`.
+
+*Generation* shows the LLM an example of every primitive. *Generalization* leaves out the examples of
+the task's own primitive (``exclude``, the paper's Table II protocol) and uses the chain-of-thought prompt
+of Listing 4. Beyond the paper, the answer's form is guaranteed: a GBNF grammar constrains decoding where
+the backend supports it, and every answer passes a validator that checks the vocabulary and the task's
+objects only (never the content) and asks again with the error shown, within a bound. Optional
+self-consistency draws ``samples`` answers per chat and keeps each condition a majority of them has.
+"""
+
+from __future__ import annotations
+
+import random
+import time
+from collections import Counter
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass, field
+from functools import cache
+from importlib import resources
+from string import Template
+from typing import Literal
+
+from taskcond.conditions import (
+    GRIPPER,
+    RELATIONS,
+    ConditionError,
+    ContainerState,
+    GripperState,
+    TaskCondition,
+    is_spatial,
+)
+from taskcond.examples import letter_example
+from taskcond.llm.base import ChatBackend, ChatMessage, ChatRequest, LLMError, Sampling
+from taskcond.primitives import PRIMITIVES, ParsedTask, get_primitive, parse_task
+
+Chat = Literal["spatial", "state"]
+CHATS: tuple[Chat, ...] = ("spatial", "state")
+PROMPT_VERSION = "v1"
+
+
+@cache
+def load_prompt(name: str, version: str = PROMPT_VERSION) -> Template:
+    """A prompt template from ``taskcond/prompts/<version>/<name>.txt``."""
+    path = resources.files("taskcond").joinpath(f"prompts/{version}/{name}.txt")
+    try:
+        return Template(path.read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        raise ValueError(f"no prompt {name!r} in prompt version {version!r}") from None
+
+
+def examples_block(chat: Chat, exclude: Iterable[str] = (), order_seed: int | None = None) -> str:
+    """The examples part of a chat's prompt: every primitive's letter example not in ``exclude``, cut to
+    the chat's half of the condition. ``order_seed`` shuffles their order (a trial of the evaluation)."""
+    excluded = set(exclude)
+    ids = [pid for pid in PRIMITIVES if pid not in excluded]
+    if order_seed is not None:
+        random.Random(order_seed).shuffle(ids)
+    spatial = chat == "spatial"
+    return "\n\n".join(letter_example(pid).only(spatial).to_text(include_collisions=spatial) for pid in ids)
+
+
+def _alternatives(options: Iterable[str]) -> str:
+    return " | ".join(f'"{o}"' for o in options)
+
+
+def answer_grammar(chat: Chat, task: ParsedTask, max_lines: int = 6) -> str:
+    """GBNF grammar of a valid answer for ``chat``: the Listing 1 format with only the task's letters, the
+    gripper, and the chat's half of the vocabulary."""
+    letters = list(task.letters().values())
+    objects = [*letters, GRIPPER]
+    if chat == "spatial":
+        cond = 'obj " " rel " " obj'
+        extra = [f"rel ::= {_alternatives(RELATIONS)}"]
+        tail = ' "Collisions: " colls "\\n"'
+        extra.append('colls ::= "none" | pair (", " pair){0,5}')
+        extra.append('pair ::= obj " and " obj')
+    else:
+        cond = '"gripper grasping " item | "gripper not grasping" | item " open" | item " closed"'
+        extra = [f"item ::= {_alternatives(letters)}"]
+        tail = ' "\\n"'  # a blank line ends the answer, as it ends each example
+    rules = [
+        f'root ::= "Relevant objects: " objs "\\nPre-conditions:\\n" conds "Post-conditions:\\n" conds{tail}',
+        f'objs ::= obj (", " obj){{0,{len(objects) - 1}}}',
+        f'conds ::= "  none\\n" | ("  " cond "\\n"){{1,{max_lines}}}',
+        f"cond ::= {cond}",
+        f"obj ::= {_alternatives(objects)}",
+        *extra,
+    ]
+    return "\n".join(rules) + "\n"
+
+
+def parse_answer(text: str, chat: Chat, task: ParsedTask) -> TaskCondition:
+    """Validate one chat's answer and map its letters back to the task's objects.
+
+    Checks form only: the Listing 1 layout, the vocabulary, the chat's half of it, and that every object
+    is one of the task's letters or the gripper. Raises :class:`ConditionError` saying what is wrong.
+    """
+    body = text.strip().strip("`").strip()
+    if not body:
+        raise ConditionError("the answer is empty")
+    lines = [ln for ln in body.splitlines() if not ln.strip().lower().startswith(("q:", "a:"))]
+    cond = TaskCondition.from_text("\n".join(lines), task_name=task.letter_name)
+    to_object = {letter.lower(): obj for obj, letter in task.letters().items()}
+    allowed = {*to_object, GRIPPER}
+    names = set(cond.relevant_objects) | cond.mentioned_objects()
+    unknown = sorted(names - allowed)
+    if unknown:
+        valid = ", ".join([*(letter.upper() for letter in to_object), GRIPPER])
+        raise ConditionError(f"it names objects not in the task: {', '.join(unknown)}; use only {valid}")
+    if not cond.relevant_objects:
+        raise ConditionError("'Relevant objects:' is empty")
+    unlisted = sorted(cond.mentioned_objects() - set(cond.relevant_objects))
+    if unlisted:
+        raise ConditionError(
+            f"conditions name objects missing from 'Relevant objects:': {', '.join(unlisted)}"
+        )
+    wrong = [
+        str(p) for p in (*cond.pre_conditions, *cond.post_conditions) if is_spatial(p) != (chat == "spatial")
+    ]
+    if wrong:
+        kind = (
+            "spatial relations (above, below, inside, in front of)" if chat == "spatial" else "object states"
+        )
+        raise ConditionError(f"{', '.join(wrong)} not allowed here: give only {kind}")
+    if chat == "state" and cond.collisions:
+        raise ConditionError("give no collisions here, only object states")
+    for pred in (*cond.pre_conditions, *cond.post_conditions):
+        if isinstance(pred, ContainerState) and pred.container == GRIPPER:
+            raise ConditionError(f"{pred}: the gripper is not a container")
+        if isinstance(pred, GripperState) and pred.obj == GRIPPER:
+            raise ConditionError(f"{pred}: the gripper cannot grasp itself")
+    for col in cond.collisions:
+        if col.a == col.b:
+            raise ConditionError(f"collision {col}: an object cannot collide with itself")
+    return cond.rename(to_object, task_name=task.name)
+
+
+def _majority(conditions: Sequence[TaskCondition], task_name: str) -> TaskCondition:
+    """Self-consistency: keep every object, condition and collision more than half the samples contain."""
+    need = len(conditions) / 2
+
+    def vote(field_values: list[tuple]) -> tuple:
+        counts: Counter = Counter()
+        first: dict = {}
+        for values in field_values:
+            for v in dict.fromkeys(values):
+                counts[v] += 1
+                first.setdefault(v, len(first))
+        return tuple(sorted((v for v in counts if counts[v] > need), key=first.__getitem__))
+
+    return TaskCondition(
+        task_name=task_name,
+        relevant_objects=vote([c.relevant_objects for c in conditions]),
+        pre_conditions=vote([c.pre_conditions for c in conditions]),
+        post_conditions=vote([c.post_conditions for c in conditions]),
+        collisions=vote([c.collisions for c in conditions]),
+    )
+
+
+@dataclass
+class ChatTranscript:
+    """What one chat asked and got: every answer in order (rejected ones with their errors)."""
+
+    chat: Chat
+    prompt: str
+    answers: list[str] = field(default_factory=list)
+    errors: list[str] = field(default_factory=list)
+    cached: bool = True
+
+
+@dataclass
+class GenerationResult:
+    """A generated task condition with how it came about."""
+
+    condition: TaskCondition
+    mode: Literal["generation", "generalization"]
+    excluded: tuple[str, ...]
+    transcripts: list[ChatTranscript]
+    seconds: float
+
+    @property
+    def cached(self) -> bool:
+        return all(t.cached for t in self.transcripts)
+
+    @property
+    def attempts(self) -> int:
+        return sum(len(t.answers) for t in self.transcripts)
+
+
+@dataclass
+class ConditionGenerator:
+    """Generates task conditions with two chats of ``backend`` (paper §III-B/C).
+
+    Attributes:
+        backend: any :class:`~taskcond.llm.base.ChatBackend`.
+        max_retries: how often a chat is asked again after an invalid answer.
+        samples: self-consistency samples per chat (1: a single greedy answer).
+        temperature: sampling temperature when ``samples > 1``.
+        use_grammar: send the answer grammar (constrained decoding) with each request.
+        prompt_version: directory of the prompt files.
+    """
+
+    backend: ChatBackend
+    max_retries: int = 2
+    samples: int = 1
+    temperature: float = 0.7
+    use_grammar: bool = True
+    prompt_version: str = PROMPT_VERSION
+
+    def prompt(
+        self, chat: Chat, task: ParsedTask, exclude: Iterable[str] = (), order_seed: int | None = None
+    ) -> str:
+        """The full prompt of one chat for ``task``; chain-of-thought (Listing 4) when the task's primitive
+        is excluded."""
+        excluded = set(exclude)
+        name = f"{chat}_cot" if task.primitive.id in excluded else chat
+        return load_prompt(name, self.prompt_version).substitute(
+            examples=examples_block(chat, excluded, order_seed), task=task.letter_name
+        )
+
+    def _chat(
+        self,
+        chat: Chat,
+        task: ParsedTask,
+        prompt: str,
+        seed: int,
+        temperature: float,
+        transcript: ChatTranscript,
+    ) -> TaskCondition:
+        messages = [ChatMessage("user", prompt)]
+        grammar = answer_grammar(chat, task) if self.use_grammar else None
+        for _attempt in range(self.max_retries + 1):
+            request = ChatRequest(
+                messages=tuple(messages),
+                sampling=Sampling(temperature=temperature, max_tokens=160, seed=seed),
+                grammar=grammar,
+            )
+            response = self.backend.chat(request)
+            transcript.cached &= response.cached
+            transcript.answers.append(response.text)
+            try:
+                return parse_answer(response.text, chat, task)
+            except ConditionError as exc:
+                transcript.errors.append(str(exc))
+                retry = load_prompt("retry", self.prompt_version).substitute(
+                    error=exc, task=task.letter_name, objects=", ".join([*task.letters().values(), GRIPPER])
+                )
+                messages += [ChatMessage("assistant", response.text), ChatMessage("user", retry)]
+        last = " ".join(transcript.answers[-1].split())[:120]
+        raise LLMError(
+            f"{self.backend.model} gave no valid {chat} answer for {task.name!r} in {self.max_retries + 1} "
+            f"attempts; last answer {last!r}: {transcript.errors[-1]}",
+            backend=self.backend.name,
+        )
+
+    def generate(
+        self,
+        task_name: str | ParsedTask,
+        exclude: Iterable[str] = (),
+        order_seed: int | None = None,
+        seed: int = 0,
+    ) -> GenerationResult:
+        """Generate the task condition of ``task_name``.
+
+        Args:
+            task_name: e.g. ``"move bottle into box"`` (parsed by :func:`taskcond.primitives.parse_task`).
+            exclude: primitive ids whose examples are left out of the prompts; excluding the task's own
+                primitive makes this generalization (§III-C).
+            order_seed: shuffles the order of the examples in the prompts.
+            seed: sampling seed.
+
+        Raises:
+            TaskNameError: the task name does not parse.
+            LLMError: the backend failed, or gave no valid answer within the retry bound.
+        """
+        start = time.perf_counter()
+        task = task_name if isinstance(task_name, ParsedTask) else parse_task(task_name)
+        excluded = tuple(get_primitive(pid).id for pid in exclude)
+        parts: dict[Chat, TaskCondition] = {}
+        transcripts = []
+        for chat in CHATS:
+            prompt = self.prompt(chat, task, excluded, order_seed)
+            transcript = ChatTranscript(chat, prompt)
+            transcripts.append(transcript)
+            if self.samples <= 1:
+                parts[chat] = self._chat(chat, task, prompt, seed, 0.0, transcript)
+            else:
+                answers = [
+                    self._chat(chat, task, prompt, seed + i, self.temperature, transcript)
+                    for i in range(self.samples)
+                ]
+                parts[chat] = _majority(answers, task.name)
+        condition = TaskCondition.merge(parts["spatial"], parts["state"])
+        return GenerationResult(
+            condition=condition,
+            mode="generalization" if task.primitive.id in excluded else "generation",
+            excluded=excluded,
+            transcripts=transcripts,
+            seconds=time.perf_counter() - start,
+        )
+
+
+__all__ = [
+    "CHATS",
+    "ConditionGenerator",
+    "GenerationResult",
+    "answer_grammar",
+    "examples_block",
+    "load_prompt",
+    "parse_answer",
+]

@@ -1,0 +1,118 @@
+"""Choosing and configuring the LLM backend: the ``--llm`` option, environment variables and a config file.
+
+Precedence: the ``--llm`` option, then ``$TASKCOND_LLM``, then the config file, then the embedded default.
+A backend spec is ``embedded``, ``embedded:MODEL``, ``openai`` or ``openai:MODEL``.
+
+The config file is ``$TASKCOND_CONFIG`` or ``~/.config/taskcond/config.toml``::
+
+    [llm]
+    backend = "openai:gpt-4o-mini"       # or "embedded", "embedded:qwen2.5-coder-0.5b"
+    base_url = "http://127.0.0.1:8000/v1"
+    api_key_env = "OPENAI_API_KEY"       # name of the variable holding the key (the key itself never here)
+    timeout = 60
+    grammar_field = "grammar"            # constrained decoding on llama.cpp servers
+    cache = true
+
+For the OpenAI backend, ``OPENAI_BASE_URL`` and ``TASKCOND_OPENAI_MODEL`` override the file.
+"""
+
+from __future__ import annotations
+
+import os
+import tomllib
+from dataclasses import dataclass, replace
+from pathlib import Path
+
+from taskcond.llm.base import ChatBackend, LLMError
+from taskcond.llm.cache import CachedBackend
+from taskcond.llm.models import DEFAULT_EMBEDDED_MODEL, cache_dir
+
+BACKENDS = ("embedded", "openai")
+DEFAULT_OPENAI_MODEL = "gpt-4o-mini"
+
+
+@dataclass(frozen=True)
+class LLMConfig:
+    """Resolved backend settings."""
+
+    backend: str = "embedded"
+    model: str | None = None
+    base_url: str | None = None
+    api_key_env: str = "OPENAI_API_KEY"
+    timeout: float = 60.0
+    grammar_field: str | None = None
+    cache: bool = True
+    cache_dir: Path | None = None
+
+    @classmethod
+    def load(cls, spec: str | None = None, config_file: Path | None = None) -> LLMConfig:
+        """Resolve settings from ``spec`` (the ``--llm`` value), the environment and the config file."""
+        path = config_file or Path(
+            os.environ.get("TASKCOND_CONFIG", Path.home() / ".config" / "taskcond" / "config.toml")
+        )
+        table: dict = {}
+        if path.is_file():
+            try:
+                table = tomllib.loads(path.read_text(encoding="utf-8")).get("llm", {})
+            except tomllib.TOMLDecodeError as exc:
+                raise LLMError(f"config file {path} is not valid TOML: {exc}", backend="config") from None
+        known = {"backend", "base_url", "api_key_env", "timeout", "grammar_field", "cache"}
+        unknown = set(table) - known
+        if unknown:
+            raise LLMError(
+                f"config file {path}: unknown [llm] keys {sorted(unknown)}; valid: {sorted(known)}",
+                backend="config",
+            )
+        chosen = spec or os.environ.get("TASKCOND_LLM") or table.get("backend") or "embedded"
+        kind, _, model = chosen.partition(":")
+        if kind not in BACKENDS:
+            raise LLMError(
+                f"unknown backend {chosen!r}; valid: embedded, embedded:MODEL, openai, openai:MODEL",
+                backend="config",
+            )
+        cfg = cls(
+            backend=kind,
+            model=model or None,
+            base_url=table.get("base_url"),
+            api_key_env=table.get("api_key_env", "OPENAI_API_KEY"),
+            timeout=float(table.get("timeout", 60.0)),
+            grammar_field=table.get("grammar_field"),
+            cache=bool(table.get("cache", True)),
+        )
+        if kind == "openai":
+            cfg = replace(
+                cfg,
+                base_url=os.environ.get("OPENAI_BASE_URL") or cfg.base_url,
+                model=cfg.model or os.environ.get("TASKCOND_OPENAI_MODEL") or DEFAULT_OPENAI_MODEL,
+            )
+        return cfg
+
+
+def make_backend(config: LLMConfig) -> ChatBackend:
+    """Build the configured backend, wrapped in the on-disk response cache unless ``config.cache`` is off."""
+    backend: ChatBackend
+    if config.backend == "embedded":
+        from taskcond.llm.embedded import EmbeddedBackend
+
+        backend = EmbeddedBackend(config.model or DEFAULT_EMBEDDED_MODEL)
+    else:
+        from taskcond.llm.openai_backend import OpenAIBackend
+
+        key = os.environ.get(config.api_key_env)
+        if not key:
+            if not config.base_url:
+                raise LLMError(
+                    f"no API key: set {config.api_key_env}, or OPENAI_BASE_URL for a local server",
+                    backend="openai",
+                )
+            key = "none"  # local OpenAI-compatible servers accept any key
+        backend = OpenAIBackend(
+            model=config.model or DEFAULT_OPENAI_MODEL,
+            base_url=config.base_url,
+            api_key=key,
+            timeout=config.timeout,
+            grammar_field=config.grammar_field,
+        )
+    if config.cache:
+        return CachedBackend(backend, (config.cache_dir or cache_dir()) / "responses")
+    return backend
