@@ -20,6 +20,7 @@ import time
 from collections import Counter
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
+from difflib import SequenceMatcher
 from functools import cache
 from importlib import resources
 from string import Template
@@ -53,13 +54,26 @@ def load_prompt(name: str, version: str = PROMPT_VERSION) -> Template:
         raise ValueError(f"no prompt {name!r} in prompt version {version!r}") from None
 
 
-def examples_block(chat: Chat, exclude: Iterable[str] = (), order_seed: int | None = None) -> str:
+def examples_block(
+    chat: Chat, task: ParsedTask, exclude: Iterable[str] = (), order_seed: int | None = None
+) -> str:
     """The examples part of a chat's prompt: every primitive's letter example not in ``exclude``, cut to
-    the chat's half of the condition. ``order_seed`` shuffles their order (a trial of the evaluation)."""
+    the chat's half of the condition.
+
+    Examples are ordered by how much their letter task name resembles ``task``'s (the most similar last,
+    nearest the question), a generic in-context example ordering that uses the names only. ``order_seed``
+    shuffles the order among equally similar examples (a trial of the evaluation).
+    """
     excluded = set(exclude)
     ids = [pid for pid in PRIMITIVES if pid not in excluded]
     if order_seed is not None:
         random.Random(order_seed).shuffle(ids)
+    target = task.letter_name
+
+    def similarity(pid: str) -> float:
+        return SequenceMatcher(None, PRIMITIVES[pid].pattern, target).ratio()
+
+    ids.sort(key=similarity)
     spatial = chat == "spatial"
     return "\n\n".join(letter_example(pid).only(spatial).to_text(include_collisions=spatial) for pid in ids)
 
@@ -220,7 +234,7 @@ class ConditionGenerator:
         excluded = set(exclude)
         name = f"{chat}_cot" if task.primitive.id in excluded else chat
         return load_prompt(name, self.prompt_version).substitute(
-            examples=examples_block(chat, excluded, order_seed), task=task.letter_name
+            examples=examples_block(chat, task, excluded, order_seed), task=task.letter_name
         )
 
     def _chat(
