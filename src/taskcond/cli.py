@@ -50,7 +50,7 @@ def fail(message: str) -> NoReturn:
     raise typer.Exit(2)
 
 
-def _generator(llm: str | None, samples: int, no_cache: bool, grammar: bool = True):
+def _generator(llm: str | None, samples: int, no_cache: bool, grammar: str = "fallback"):
     from dataclasses import replace
 
     from taskcond.generator import ConditionGenerator
@@ -59,7 +59,7 @@ def _generator(llm: str | None, samples: int, no_cache: bool, grammar: bool = Tr
     config = LLMConfig.load(llm)
     if no_cache:
         config = replace(config, cache=False)
-    return ConditionGenerator(make_backend(config), samples=samples, use_grammar=grammar)
+    return ConditionGenerator(make_backend(config), samples=samples, grammar=grammar)
 
 
 @app.command()
@@ -75,14 +75,20 @@ def conditions(
     llm: LlmOption = None,
     samples: SamplesOption = 1,
     no_cache: NoCacheOption = False,
-    no_grammar: Annotated[
-        bool, typer.Option("--no-grammar", help="Do not constrain decoding; rely on validation alone.")
-    ] = False,
+    grammar: Annotated[
+        str,
+        typer.Option(
+            "--grammar",
+            help="Constrained decoding: fallback (only after an invalid answer), always, or never.",
+        ),
+    ] = "fallback",
     seed: Annotated[int, typer.Option("--seed", help="Sampling seed.")] = 0,
 ) -> None:
     """Generate the task condition of TASK with the LLM (paper §III-B/C) and print it."""
     try:
-        gen = _generator(llm, samples, no_cache, grammar=not no_grammar)
+        if grammar not in ("fallback", "always", "never"):
+            fail(f"--grammar {grammar!r}: use fallback, always or never")
+        gen = _generator(llm, samples, no_cache, grammar=grammar)
         result = gen.generate(task, exclude=exclude or (), seed=seed)
     except (TaskNameError, ConditionError, LLMError) as exc:
         fail(str(exc))

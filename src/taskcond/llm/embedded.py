@@ -1,8 +1,10 @@
 """The embedded backend: llama.cpp (``llama-cpp-python``) running a GGUF model that PyPI packages ship.
 
 Offline: nothing is downloaded at run time. The model is loaded lazily on the first request that misses
-the response cache, so fully cached runs never pay the load. Shared prompt prefixes (the job description,
-vocabulary and examples of a chat) are kept as llama.cpp states in RAM, so a new task name only evaluates
+the response cache, so fully cached runs never pay the load. Shared prompt prefixes are reused: the backend
+keeps a few llama.cpp contexts over the one memory-mapped model, and sends each request to the context
+whose last prompt shares the longest prefix with it, so the two chats of the condition generator (each
+with its long job-vocabulary-examples prefix) never evict each other and a new task name only evaluates
 its own few tokens. Answers are constrained by a GBNF grammar when the request carries one.
 """
 
@@ -15,8 +17,16 @@ from typing import Any
 from taskcond.llm.base import ChatRequest, ChatResponse, LLMError
 from taskcond.llm.models import DEFAULT_EMBEDDED_MODEL, get_embedded_model, model_path
 
-PREFIX_CACHE_BYTES = 1 << 30
-"""RAM for cached prompt-prefix states (a state of a 700-token prompt of the 1.5B model is ~20 MB)."""
+CONTEXTS = 2
+"""llama.cpp contexts kept (one per concurrent conversation; the weights are shared through mmap)."""
+
+
+def _common_prefix_length(a: str, b: str) -> int:
+    n = min(len(a), len(b))
+    for i in range(n):
+        if a[i] != b[i]:
+            return i
+    return n
 
 
 class EmbeddedBackend:
@@ -29,13 +39,14 @@ class EmbeddedBackend:
         self.model = model
         self.n_ctx = n_ctx
         self.n_threads = n_threads or os.cpu_count() or 1
-        self._llm: Any = None
+        self._contexts: list[Any] = []
+        self._last_prompt: list[str] = []
         self._grammars: dict[str, Any] = {}
         self.load_seconds = 0.0
 
-    def _load(self) -> Any:
-        if self._llm is not None:
-            return self._llm
+    def _load(self) -> list[Any]:
+        if self._contexts:
+            return self._contexts
         try:
             import llama_cpp
         except ImportError:
@@ -45,17 +56,34 @@ class EmbeddedBackend:
             ) from None
         path = model_path(self.spec)
         start = time.perf_counter()
-        self._llm = llama_cpp.Llama(
-            model_path=str(path),
-            n_ctx=self.n_ctx,
-            n_threads=self.n_threads,
-            n_threads_batch=self.n_threads,
-            chat_format=self.spec.chat_format,
-            verbose=False,
-        )
-        self._llm.set_cache(llama_cpp.LlamaRAMCache(capacity_bytes=PREFIX_CACHE_BYTES))
+        self._contexts = [
+            llama_cpp.Llama(
+                model_path=str(path),
+                n_ctx=self.n_ctx,
+                n_threads=self.n_threads,
+                n_threads_batch=self.n_threads,
+                chat_format=self.spec.chat_format,
+                verbose=False,
+            )
+            for _ in range(CONTEXTS)
+        ]
+        self._last_prompt = [""] * CONTEXTS
+        self._lru = list(range(CONTEXTS))
         self.load_seconds = time.perf_counter() - start
-        return self._llm
+        return self._contexts
+
+    def _context_for(self, prompt: str) -> Any:
+        """The context whose previous prompt shares the longest prefix with ``prompt``; when none shares at
+        least half of it, the least recently used context (so two conversations never evict each other)."""
+        contexts = self._load()
+        shared = [_common_prefix_length(prompt, last) for last in self._last_prompt]
+        best = max(range(len(contexts)), key=shared.__getitem__)
+        if shared[best] < len(prompt) // 2:
+            best = self._lru[0]
+        self._lru.remove(best)
+        self._lru.append(best)
+        self._last_prompt[best] = prompt
+        return contexts[best]
 
     def _grammar(self, text: str) -> Any:
         if text not in self._grammars:
@@ -68,7 +96,7 @@ class EmbeddedBackend:
         return self._grammars[text]
 
     def chat(self, request: ChatRequest) -> ChatResponse:
-        llm = self._load()
+        llm = self._context_for("\n".join(m.content for m in request.messages))
         s = request.sampling
         start = time.perf_counter()
         out = llm.create_chat_completion(

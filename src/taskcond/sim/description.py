@@ -77,4 +77,6 @@ class SceneDescription:
         for b in self.bodies:
             if b.name == name:
                 return b
-        raise KeyError(f"no body named {name!r} in the scene; valid: {', '.join(b.name for b in self.bodies)}")
+        raise KeyError(
+            f"no body named {name!r} in the scene; valid: {', '.join(b.name for b in self.bodies)}"
+        )

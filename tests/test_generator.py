@@ -1,0 +1,177 @@
+"""Condition generation: prompts, grammar, validation, retries, self-consistency and the response cache.
+
+The backends here are real: the embedded llama.cpp model (loaded once per session) and, for validation
+paths that need a specific bad answer, a scripted replay backend standing in for an LLM that misbehaves.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import pytest
+
+from taskcond.conditions import ConditionError, TaskCondition
+from taskcond.examples import reference_condition
+from taskcond.generator import ConditionGenerator, answer_grammar, examples_block, parse_answer
+from taskcond.llm.base import ChatRequest, ChatResponse, LLMError
+from taskcond.llm.cache import CachedBackend
+from taskcond.primitives import PRIMITIVES, parse_task
+
+GOOD_SPATIAL = """Relevant objects: A, B, gripper
+Pre-conditions:
+  none
+Post-conditions:
+  A inside B
+  gripper inside B
+Collisions: gripper and A
+"""
+GOOD_STATE = """Relevant objects: A, B, gripper
+Pre-conditions:
+  gripper grasping A
+  B open
+Post-conditions:
+  gripper grasping A
+  B open
+"""
+
+
+@dataclass
+class Replay:
+    """A backend that answers from a script, recording what it was asked (for the validator's paths)."""
+
+    answers: list[str]
+    name: str = "replay"
+    model: str = "script"
+    requests: list[ChatRequest] = field(default_factory=list)
+
+    def chat(self, request: ChatRequest) -> ChatResponse:
+        self.requests.append(request)
+        return ChatResponse(self.answers.pop(0))
+
+
+def test_prompt_has_the_four_parts_and_letters_only():
+    gen = ConditionGenerator(Replay([]))
+    task = parse_task("move coffee mug into top drawer")
+    prompt = gen.prompt("spatial", task)
+    assert prompt.startswith("Imagine you are a spatial relation & collision judgment machine.")
+    assert "above, below, inside, in front of" in prompt
+    assert "Here are some examples:" in prompt
+    assert "Remember to strictly follow the examples' format." in prompt
+    assert prompt.rstrip().endswith("Q: Task name: move A into B")
+    assert "coffee mug" not in prompt and "drawer" not in prompt
+    state = gen.prompt("state", task)
+    assert "gripper grasping/not grasping, container open/closed" in state
+    assert "Collisions" not in state.split("Here are some examples:")[1]
+
+
+def test_leaving_a_primitive_out_removes_its_examples_and_uses_chain_of_thought():
+    gen = ConditionGenerator(Replay([]))
+    task = parse_task("move bottle into box")
+    prompt = gen.prompt("spatial", task, exclude=["move_into"])
+    assert prompt.count("Task name: move A into B") == 1  # only the question
+    assert "First, decide which objects are relevant" in prompt
+    assert prompt.count("Task name:") == len(PRIMITIVES) - 1 + 1
+    assert examples_block("state").count("Task name:") == len(PRIMITIVES)
+
+
+def test_example_order_is_shuffled_by_the_trial_seed_and_keeps_every_example():
+    orders = {examples_block("spatial", order_seed=s) for s in range(4)}
+    assert len(orders) > 1
+    for block in orders:
+        assert sorted(block.split("\n\n")) == sorted(examples_block("spatial").split("\n\n"))
+
+
+def test_parse_answer_maps_letters_back_and_checks_form_only():
+    task = parse_task("move bottle into box")
+    spatial = parse_answer(GOOD_SPATIAL, "spatial", task)
+    state = parse_answer(GOOD_STATE, "state", task)
+    merged = TaskCondition.merge(spatial, state)
+    assert merged.matches(reference_condition(task))
+    assert merged.task_name == "move bottle into box"
+
+
+@pytest.mark.parametrize(
+    ("answer", "chat", "message"),
+    [
+        ("", "spatial", "empty"),
+        ("I cannot help with that.", "spatial", "unexpected line"),
+        (GOOD_SPATIAL.replace("A inside B", "A near B"), "spatial", "not a condition"),
+        (GOOD_SPATIAL.replace("A inside B", "C inside B"), "spatial", "not in the task: c; use only A, B"),
+        (GOOD_SPATIAL.replace("A inside B", "gripper grasping A"), "spatial", "only spatial relations"),
+        (GOOD_STATE.replace("B open", "A inside B"), "state", "only object states"),
+        (GOOD_STATE + "Collisions: gripper and A\n", "state", "no collisions"),
+        (GOOD_SPATIAL.replace("Relevant objects: A, B, gripper", "Relevant objects: A, gripper"), "spatial",
+         "missing from 'Relevant objects:'"),
+        (GOOD_SPATIAL.replace("gripper and A", "A and A"), "spatial", "cannot collide with itself"),
+        (GOOD_SPATIAL.replace("A inside B", "A inside A"), "spatial", "relation with itself"),
+    ],
+)  # fmt: skip
+def test_parse_answer_refuses_malformed_answers(answer, chat, message):
+    with pytest.raises(ConditionError, match=message):
+        parse_answer(answer, chat, parse_task("move bottle into box"))
+
+
+def test_invalid_answer_is_retried_with_the_error_shown():
+    backend = Replay(["Sure! Here you go.", GOOD_SPATIAL, GOOD_STATE])
+    result = ConditionGenerator(backend).generate("move bottle into box")
+    assert result.condition.matches(reference_condition(parse_task("move bottle into box")))
+    assert result.attempts == 3
+    retry = backend.requests[1].messages
+    assert [m.role for m in retry] == ["user", "assistant", "user"]
+    assert "not valid" in retry[2].content and "unexpected line" in retry[2].content
+
+
+def test_retries_are_bounded_and_end_in_a_one_line_error():
+    backend = Replay(["nonsense"] * 3)
+    with pytest.raises(LLMError, match=r"\[replay\] script gave no valid spatial answer .* in 3 attempts"):
+        ConditionGenerator(backend, max_retries=2).generate("move bottle into box")
+    assert not backend.answers
+
+
+def test_self_consistency_keeps_the_majority_of_each_condition():
+    noisy = GOOD_SPATIAL.replace("  gripper inside B\n", "  gripper inside B\n  B above A\n")
+    backend = Replay([GOOD_SPATIAL, noisy, GOOD_SPATIAL, GOOD_STATE, GOOD_STATE, GOOD_STATE])
+    result = ConditionGenerator(backend, samples=3).generate("move bottle into box")
+    assert result.condition.matches(reference_condition(parse_task("move bottle into box")))
+    assert [r.sampling.seed for r in backend.requests] == [0, 1, 2, 0, 1, 2]
+    assert all(r.sampling.temperature > 0 for r in backend.requests)
+
+
+def test_response_cache_answers_repeats_without_the_backend(tmp_path):
+    backend = Replay([GOOD_SPATIAL, GOOD_STATE])
+    cached = CachedBackend(backend, tmp_path)
+    first = ConditionGenerator(cached).generate("move bottle into box")
+    second = ConditionGenerator(cached).generate("move bottle into box")
+    assert not first.cached and second.cached
+    assert second.condition == first.condition
+    assert len(backend.requests) == 2
+    other = ConditionGenerator(CachedBackend(Replay([GOOD_SPATIAL]), tmp_path), grammar="never")
+    assert other.backend.key(backend.requests[0]) != other.backend.key(
+        ChatRequest(backend.requests[0].messages, backend.requests[0].sampling, None)
+    )
+
+
+def test_grammar_names_only_the_tasks_letters():
+    grammar = answer_grammar("spatial", parse_task("move bottle into box"))
+    assert '"A " rel " B"' in grammar and '"A " rel " A"' not in grammar
+    assert '"in front of"' in grammar
+    state = answer_grammar("state", parse_task("grasp bottle"))
+    assert 'item ::= "A"' in state and '"B"' not in state
+
+
+@pytest.mark.llm
+def test_embedded_grammar_answers_are_always_valid(embedded_backend):
+    """Constrained decoding: every answer of the real model parses, for every primitive."""
+    gen = ConditionGenerator(embedded_backend, max_retries=0)
+    for pid, prim in PRIMITIVES.items():
+        task = parse_task(prim.task_name(*(["bowl", "top drawer"][: prim.n_objects])))
+        result = gen.generate(task, exclude=[pid])
+        assert result.attempts == 2, result.transcripts
+        assert result.condition.relevant_objects
+
+
+@pytest.mark.llm
+def test_embedded_generation_of_the_papers_listing_1(embedded_backend):
+    result = ConditionGenerator(embedded_backend).generate("move bottle into box")
+    assert result.mode == "generation"
+    assert result.condition.matches(reference_condition(parse_task("move bottle into box")))

@@ -1,0 +1,129 @@
+"""The OpenAI-compatible backend against a real server on 127.0.0.1 (llama-cpp-python's own server running
+the embedded model), through the official ``openai`` SDK; plus its error paths and the config resolution."""
+
+from __future__ import annotations
+
+import os
+import socket
+import subprocess
+import sys
+import time
+import urllib.request
+
+import pytest
+
+from taskcond.examples import reference_condition
+from taskcond.generator import ConditionGenerator
+from taskcond.llm.base import ChatMessage, ChatRequest, LLMError
+from taskcond.llm.config import LLMConfig, make_backend
+from taskcond.llm.models import DEFAULT_EMBEDDED_MODEL, get_embedded_model, model_path
+from taskcond.primitives import parse_task
+
+SECRET = "sk-test-do-not-print-1234567890"
+
+
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+@pytest.fixture(scope="module")
+def server():
+    """llama_cpp.server on a free loopback port; stopped after the module's tests."""
+    pytest.importorskip("uvicorn", reason="needs the [server] extra")
+    port = _free_port()
+    path = model_path(get_embedded_model(DEFAULT_EMBEDDED_MODEL))
+    cmd = [sys.executable, "-m", "llama_cpp.server", "--model", str(path), "--host", "127.0.0.1",
+           "--port", str(port), "--n_ctx", "4096", "--chat_format", "chatml"]  # fmt: skip
+    proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    url = f"http://127.0.0.1:{port}/v1"
+    deadline = time.monotonic() + 120
+    while time.monotonic() < deadline:
+        try:
+            urllib.request.urlopen(f"{url}/models", timeout=2)
+            break
+        except OSError:
+            if proc.poll() is not None:
+                pytest.fail(f"llama_cpp.server exited with {proc.returncode}")
+            time.sleep(0.5)
+    else:
+        proc.kill()
+        pytest.fail("llama_cpp.server did not start within 120 s")
+    yield url
+    proc.terminate()
+    proc.wait(timeout=30)
+
+
+def _backend(monkeypatch, url: str | None, grammar_field: str | None = None, timeout: float = 120):
+    monkeypatch.setenv("OPENAI_API_KEY", SECRET)
+    if url:
+        monkeypatch.setenv("OPENAI_BASE_URL", url)
+    cfg = LLMConfig.load("openai:local-model")
+    from dataclasses import replace
+
+    return make_backend(replace(cfg, cache=False, grammar_field=grammar_field, timeout=timeout))
+
+
+@pytest.mark.server
+def test_generation_through_a_real_openai_compatible_server(server, monkeypatch):
+    backend = _backend(monkeypatch, server, grammar_field="grammar")
+    result = ConditionGenerator(backend).generate("move bottle into box")
+    assert result.condition.matches(reference_condition(parse_task("move bottle into box")))
+
+
+@pytest.mark.server
+def test_without_a_grammar_the_validator_still_guarantees_the_form(server, monkeypatch):
+    backend = _backend(monkeypatch, server, grammar_field=None)
+    try:
+        result = ConditionGenerator(backend, grammar="never", max_retries=3).generate("grasp bowl")
+    except LLMError as exc:  # a bounded failure is an accepted outcome; a traceback or bad form is not
+        assert "no valid" in str(exc) and SECRET not in str(exc)
+    else:
+        assert set(result.condition.relevant_objects) <= {"bowl", "gripper"}
+        assert result.condition.mentioned_objects() <= {"bowl", "gripper"}
+
+
+@pytest.mark.server
+def test_unreachable_endpoint_is_a_one_line_error_without_the_key(monkeypatch):
+    backend = _backend(monkeypatch, f"http://127.0.0.1:{_free_port()}/v1", timeout=5)
+    request = ChatRequest((ChatMessage("user", "hi"),))
+    with pytest.raises(LLMError, match=r"\[openai\] cannot reach endpoint http://127.0.0.1:\d+/v1") as info:
+        backend.chat(request)
+    assert SECRET not in str(info.value) and "\n" not in str(info.value)
+
+
+def test_missing_key_without_local_endpoint_is_refused(monkeypatch):
+    monkeypatch.delenv("OPENAI_API_KEY", raising=False)
+    monkeypatch.delenv("OPENAI_BASE_URL", raising=False)
+    monkeypatch.setenv("TASKCOND_CONFIG", os.devnull)
+    with pytest.raises(LLMError, match="no API key: set OPENAI_API_KEY"):
+        make_backend(LLMConfig.load("openai"))
+
+
+def test_backend_spec_and_config_file(tmp_path, monkeypatch):
+    monkeypatch.delenv("TASKCOND_LLM", raising=False)
+    monkeypatch.delenv("OPENAI_BASE_URL", raising=False)
+    monkeypatch.delenv("TASKCOND_OPENAI_MODEL", raising=False)
+    cfg_file = tmp_path / "config.toml"
+    cfg_file.write_text(
+        '[llm]\nbackend = "openai:my-model"\nbase_url = "http://127.0.0.1:9/v1"\ntimeout = 5\n'
+    )
+    cfg = LLMConfig.load(None, cfg_file)
+    assert (cfg.backend, cfg.model, cfg.base_url, cfg.timeout) == (
+        "openai",
+        "my-model",
+        "http://127.0.0.1:9/v1",
+        5.0,
+    )
+    assert LLMConfig.load("embedded:qwen2.5-coder-0.5b", cfg_file).model == "qwen2.5-coder-0.5b"
+    monkeypatch.setenv("TASKCOND_LLM", "embedded")
+    assert LLMConfig.load(None, cfg_file).backend == "embedded"
+    with pytest.raises(LLMError, match="unknown backend 'gpt'; valid: embedded"):
+        LLMConfig.load("gpt", cfg_file)
+    cfg_file.write_text("[llm]\nbackend = 3 = 4\n")
+    with pytest.raises(LLMError, match="not valid TOML"):
+        LLMConfig.load(None, cfg_file)
+    cfg_file.write_text('[llm]\napi_key = "sk-x"\n')
+    with pytest.raises(LLMError, match=r"unknown \[llm\] keys \['api_key'\]"):
+        LLMConfig.load(None, cfg_file)
