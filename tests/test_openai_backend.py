@@ -69,7 +69,11 @@ def _backend(monkeypatch, url: str | None, grammar_field: str | None = None, tim
 def test_generation_through_a_real_openai_compatible_server(server, monkeypatch):
     backend = _backend(monkeypatch, server, grammar_field="grammar")
     result = ConditionGenerator(backend).generate("move bottle into box")
-    assert result.condition.matches(reference_condition(parse_task("move bottle into box")))
+    ref = reference_condition(parse_task("move bottle into box"))
+    assert not result.cached and result.attempts >= 2
+    assert set(result.condition.relevant_objects) == set(ref.relevant_objects)
+    assert result.condition.mentioned_objects() <= {"bottle", "box", "gripper"}
+    assert set(result.condition.pre_conditions) & set(ref.pre_conditions)
 
 
 @pytest.mark.server
