@@ -1,0 +1,88 @@
+"""The command line: output formats, exit codes and one-line errors."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+from typer.testing import CliRunner
+
+from taskcond.cli import app
+from taskcond.conditions import TaskCondition
+from taskcond.generator import ConditionGenerator
+from taskcond.llm.cache import CachedBackend
+from taskcond.primitives import PRIMITIVES
+
+runner = CliRunner()
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["conditions", ""], "error: empty task name; valid patterns: grasp A"),
+        (["conditions", "jump over box"], "error: unknown verb 'jump'"),
+        (["conditions", "move bottle"], "error: 'move bottle' does not match a task pattern"),
+        (
+            ["conditions", "open box", "--exclude", "opening"],
+            "error: unknown primitive 'opening'; valid: grasp",
+        ),
+        (["conditions", "open box", "--llm", "gpt5"], "error: [config] unknown backend 'gpt5'"),
+        (["conditions", "open box", "--grammar", "maybe"], "error: --grammar 'maybe'"),
+        (["eval", "conditions", "--primitive", "jump"], "error: unknown primitive 'jump'"),
+        (
+            ["oracle", "grasp-unicorn"],
+            "error: unknown object(s) 'unicorn' for primitive 'grasp'; valid: bottle",
+        ),
+        (["oracle", "grasp-bottle", "--video", "x.avi"], "error: --video x.avi: use a .mp4 or .gif"),
+    ],
+)
+def test_bad_input_is_a_one_line_error_with_exit_code_2(args, message, monkeypatch, tmp_path):
+    monkeypatch.setenv("TASKCOND_CACHE_DIR", str(tmp_path))
+    result = runner.invoke(app, args)
+    assert result.exit_code == 2, result.output
+    assert result.stderr.startswith(message)
+    assert result.stderr.count("\n") == 1 and "Traceback" not in result.output
+
+
+def test_openai_without_key_names_the_variable(monkeypatch, tmp_path):
+    monkeypatch.delenv("OPENAI_API_KEY", raising=False)
+    monkeypatch.delenv("OPENAI_BASE_URL", raising=False)
+    monkeypatch.setenv("TASKCOND_CONFIG", str(tmp_path / "none.toml"))
+    result = runner.invoke(app, ["conditions", "open box", "--llm", "openai"])
+    assert result.exit_code == 2
+    assert (
+        result.stderr.strip()
+        == "error: [openai] no API key: set OPENAI_API_KEY, or OPENAI_BASE_URL for a local server"
+    )
+
+
+def test_tasks_lists_primitives_and_suite_as_json():
+    result = runner.invoke(app, ["tasks", "--json"])
+    assert result.exit_code == 0
+    data = json.loads(result.stdout)
+    assert [p["id"] for p in data["primitives"]] == list(PRIMITIVES)
+    kinds = {t["kind"] for t in data["tasks"]}
+    assert kinds == {"primitive", "long-horizon"}
+    for task in data["tasks"]:
+        assert set(task) == {"id", "kind", "primitive", "objects"}
+        if task["kind"] == "primitive":
+            assert task["primitive"] in PRIMITIVES
+    assert {"LHT1", "LHT2", "LHT3", "LHT1*", "LHT2*"} <= {t["id"] for t in data["tasks"]}
+
+
+@pytest.mark.llm
+def test_conditions_from_the_cache_need_no_model(embedded_backend, monkeypatch, tmp_path):
+    """A repeated run is answered from the on-disk cache: identical, and the model is never loaded."""
+    expected = ConditionGenerator(CachedBackend(embedded_backend, tmp_path / "responses")).generate(
+        "close box"
+    )
+    monkeypatch.setenv("TASKCOND_CACHE_DIR", str(tmp_path))
+    monkeypatch.delenv("TASKCOND_LLM", raising=False)
+    monkeypatch.setenv("TASKCOND_CONFIG", str(tmp_path / "none.toml"))
+    result = runner.invoke(app, ["conditions", "close box", "--json"])
+    assert result.exit_code == 0, result.output
+    assert TaskCondition.from_json(result.stdout) == expected.condition
+    assert "from cache" not in result.stdout
+    text = runner.invoke(app, ["conditions", "close box"])
+    assert text.stdout.strip() == expected.condition.to_text()
+    assert "from cache" in text.stderr
