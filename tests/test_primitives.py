@@ -8,7 +8,18 @@ from taskcond.primitives import PRIMITIVES, TaskNameError, parse_task, task_for_
 
 
 def test_registry_has_the_papers_ten_primitives():
-    expected = "grasp release open close tilt fold move move_on_top move_into move_in_front".split()
+    expected = [
+        "grasp",
+        "release",
+        "open",
+        "close",
+        "tilt",
+        "fold",
+        "move",
+        "move_on_top",
+        "move_into",
+        "move_in_front",
+    ]
     assert list(PRIMITIVES) == expected
 
 
