@@ -15,10 +15,13 @@ $(VENV)/.installed: pyproject.toml
 
 install: $(VENV)/.installed  ## create .venv and install taskcond with everything the tests need
 
-demo: install  ## run the main job on the embedded defaults
+demo: install  ## generate task conditions with the embedded LLM, then run LHT1's oracle to a video
 	$(BIN)/taskcond conditions "move bottle into box"
-	$(BIN)/taskcond conditions "open top drawer" --json
-	$(BIN)/taskcond conditions "move coffee mug in front of bowl" --exclude move_in_front
+	$(BIN)/taskcond conditions "close box" --json
+	$(BIN)/taskcond conditions "move mug in front of bowl" --exclude move_in_front
+	mkdir -p runs
+	$(BIN)/taskcond oracle LHT1 --episodes 1 --seed 0 --video runs/demo-LHT1.mp4
+	@echo "video: runs/demo-LHT1.mp4"
 
 lint: install
 	$(BIN)/ruff check src tests benchmarks
