@@ -57,8 +57,8 @@ def test_dh_table_matches_kinova_published_home_height() -> None:
     assert_allclose(pose[:3, :3], np.eye(3), atol=1e-12)
 
 
-def test_urdf_is_generated_into_the_cache_whatever_the_working_directory(tmp_path, monkeypatch) -> None:
-    monkeypatch.setenv("TASKCOND_CACHE_DIR", str(tmp_path / "cache"))
+def test_urdf_is_generated_into_the_asset_dir_whatever_the_working_directory(tmp_path, monkeypatch) -> None:
+    monkeypatch.setenv("TASKCOND_ASSET_DIR", str(tmp_path / "cache" / "urdf"))
     (tmp_path / "elsewhere").mkdir()
     monkeypatch.chdir(tmp_path / "elsewhere")
     path = gen3_urdf_path()

@@ -28,11 +28,8 @@ PyBullet's ``(x, y, z, w)``.
 
 from __future__ import annotations
 
-import hashlib
 import itertools
 import math
-import os
-import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Literal
@@ -43,6 +40,7 @@ import pybullet as p
 from numpy.typing import ArrayLike
 from scipy.spatial.transform import Rotation
 
+from taskcond.sim.assets import write_urdf
 from taskcond.sim.description import GripperSpec
 
 # ----------------------------------------------------------------------------------------------------------
@@ -452,36 +450,11 @@ def gen3_urdf(gripper: GripperGeometry = GRIPPER) -> str:
     return builder.xml()
 
 
-def _cache_dir() -> Path:
-    """taskcond's cache root: ``$TASKCOND_CACHE_DIR``, else ``$XDG_CACHE_HOME/taskcond``, else
-    ``~/.cache/taskcond``."""
-    env = os.environ.get("TASKCOND_CACHE_DIR")
-    if env:
-        return Path(env).expanduser()
-    xdg = os.environ.get("XDG_CACHE_HOME")
-    return (Path(xdg).expanduser() if xdg else Path.home() / ".cache") / "taskcond"
-
-
 def gen3_urdf_path(gripper: GripperGeometry = GRIPPER) -> Path:
-    """Write :func:`gen3_urdf` to ``<cache>/urdf/kinova_gen3_<hash>.urdf`` (or the system temp directory
-    if the cache is not writable) and return its absolute path. The name hashes the text, so a changed model
-    never reuses a stale file and concurrent writers agree."""
-    text = gen3_urdf(gripper)
-    name = f"kinova_gen3_{hashlib.sha256(text.encode()).hexdigest()[:16]}.urdf"
-    for directory in (_cache_dir() / "urdf", Path(tempfile.gettempdir()) / "taskcond-urdf"):
-        path = directory / name
-        try:
-            if path.is_file() and path.read_text(encoding="utf-8") == text:
-                return path.resolve()
-            directory.mkdir(parents=True, exist_ok=True)
-            fd, tmp = tempfile.mkstemp(dir=directory, suffix=".tmp")
-            with os.fdopen(fd, "w", encoding="utf-8") as fh:
-                fh.write(text)
-            os.replace(tmp, path)
-        except OSError:
-            continue
-        return path.resolve()
-    raise OSError(f"cannot write {name} to {_cache_dir() / 'urdf'} or the temp directory")
+    """Write :func:`gen3_urdf` beside the suite's other generated assets (through
+    :func:`~taskcond.sim.assets.write_urdf`, named by a hash of the text, so a changed model never reuses a
+    stale file) and return its absolute path."""
+    return write_urdf("kinova_gen3", gen3_urdf(gripper)).resolve()
 
 
 # ----------------------------------------------------------------------------------------------------------
