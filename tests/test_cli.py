@@ -56,18 +56,28 @@ def test_openai_without_key_names_the_variable(monkeypatch, tmp_path):
     )
 
 
-def test_tasks_lists_primitives_and_suite_as_json():
+def test_tasks_lists_the_suite_as_json():
     result = runner.invoke(app, ["tasks", "--json"])
     assert result.exit_code == 0
     data = json.loads(result.stdout)
-    assert [p["id"] for p in data["primitives"]] == list(PRIMITIVES)
-    kinds = {t["kind"] for t in data["tasks"]}
-    assert kinds == {"primitive", "long-horizon"}
-    for task in data["tasks"]:
-        assert set(task) == {"id", "kind", "primitive", "objects"}
+    assert {t["kind"] for t in data} == {"primitive", "long-horizon"}
+    for task in data:
+        assert {"id", "kind", "primitive", "objects"} <= set(task)
         if task["kind"] == "primitive":
             assert task["primitive"] in PRIMITIVES
-    assert {"LHT1", "LHT2", "LHT3", "LHT1*", "LHT2*"} <= {t["id"] for t in data["tasks"]}
+        else:
+            assert all(p in PRIMITIVES for p in task["primitive"])
+            assert len(task["steps"]) == len(task["primitive"])
+    lht1 = next(t for t in data if t["id"] == "LHT1")
+    assert lht1["primitive"][:2] == ["grasp", "move_into"]
+    assert {"LHT1", "LHT2", "LHT3", "LHT1*", "LHT2*"} <= {t["id"] for t in data}
+
+
+def test_tasks_text_shows_the_patterns():
+    result = runner.invoke(app, ["tasks"])
+    assert result.exit_code == 0
+    for prim in PRIMITIVES.values():
+        assert prim.pattern in result.stdout
 
 
 @pytest.mark.llm

@@ -15,7 +15,7 @@ import typer
 
 from taskcond.conditions import ConditionError
 from taskcond.llm.base import LLMError
-from taskcond.primitives import PRIMITIVES, TaskNameError
+from taskcond.primitives import PRIMITIVES, TaskNameError, parse_task
 
 app = typer.Typer(
     help="Long-horizon manipulation guided by LLM-generated task conditions (arXiv 2310.02264).",
@@ -102,7 +102,7 @@ def conditions(
 
 @app.command()
 def tasks(as_json: JsonOption = False) -> None:
-    """List the primitives with their task-name patterns, and the task suite's tasks."""
+    """List the primitives with their task-name patterns and the suite's tasks (--json: the suite's tasks)."""
     try:
         from taskcond.tasks.registry import list_tasks
 
@@ -110,23 +110,16 @@ def tasks(as_json: JsonOption = False) -> None:
     except ImportError:
         suite = []
     if as_json:
-        rows = [
-            {
-                "id": t.id,
-                "kind": t.kind,
-                "primitive": t.primitive if isinstance(t.primitive, str) else list(t.primitive),
-                "objects": list(t.objects),
-            }
-            for t in suite
-        ]
-        payload = {
-            "primitives": [
-                {"id": p.id, "title": p.title, "pattern": p.pattern, "aliases": list(p.aliases)}
-                for p in PRIMITIVES.values()
-            ],
-            "tasks": rows,
-        }
-        typer.echo(json.dumps(payload, indent=2))
+        rows = []
+        for t in suite:
+            row = {"id": t.id, "kind": t.kind, "primitive": t.primitive, "objects": list(t.objects)}
+            if t.kind == "long-horizon":  # its primitives in order, and the primitive tasks they come from
+                row["primitive"] = [parse_task(step).primitive.id for step in t.primitive]
+                row["steps"] = list(t.primitive)
+            rows.append(row)
+        if not suite:
+            typer.echo("(no suite tasks: the task suite needs pip install 'taskcond[sim]')", err=True)
+        typer.echo(json.dumps(rows, indent=2))
         return
     typer.echo("Primitives (id: pattern; aliases):")
     for p in PRIMITIVES.values():
