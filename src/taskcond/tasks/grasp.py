@@ -19,8 +19,15 @@ OBJECTS = ("bottle", "bowl", "mug", "toothpaste", "spatula")
 
 
 class Grasp(PrimitiveTask):
+    """``yaw_offset`` (rad): the oracle's grasp yaw relative to the object, replacing the object's default
+    (:data:`taskcond.tasks.skills.GRASPS`)."""
+
     primitive_id = "grasp"
     max_steps = 300
+
+    def __init__(self, *objects: str, yaw_offset: float | None = None) -> None:
+        super().__init__(*objects)
+        self.yaw_offset = yaw_offset
 
     def post_conditions(self) -> tuple[Predicate, ...]:
         return (GripperState(self.objects[0]),)
@@ -32,4 +39,4 @@ class Grasp(PrimitiveTask):
         """The arm starts at home with the gripper open."""
 
     def waypoints(self, env: KitchenEnv) -> list[Waypoint]:
-        return pick(env, self.objects[0])
+        return pick(env, self.objects[0], yaw_offset=self.yaw_offset)

@@ -7,6 +7,7 @@ planned from the state the previous one left. Success is checked on the final co
 
 from __future__ import annotations
 
+import math
 from collections.abc import Iterator
 
 import numpy as np
@@ -79,11 +80,23 @@ def _put_into_closed(task_id: str, obj: str, description: str) -> LongHorizonTas
     )
 
 
+BOWL_BESIDE_DRAWER_YAW = math.pi / 2
+"""Grasp yaw (rad) of the bowl once a drawer is out: fingers closing along world x, so that the hand's long
+side does not reach over the pulled-out drawer next to the bowl (MoveInto turns it back across the drawer)."""
+
+
 def _drawer_swap(task_id: str, target: str, other: str, description: str) -> LongHorizonTask:
     return LongHorizonTask(
         task_id,
         description,
-        (Close(other), Open(target), Grasp("bowl"), MoveInto("bowl", target), Release("bowl"), Close(target)),
+        (
+            Close(other),
+            Open(target),
+            Grasp("bowl", yaw_offset=BOWL_BESIDE_DRAWER_YAW),
+            MoveInto("bowl", target),
+            Release("bowl"),
+            Close(target),
+        ),
         {other: 1.0},
         (_inside("bowl", target), ContainerState(target, False), ContainerState(other, False)),
     )

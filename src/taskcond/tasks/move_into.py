@@ -9,9 +9,10 @@ from __future__ import annotations
 import numpy as np
 
 from taskcond.conditions import Predicate, Relation, SpatialRelation
+from taskcond.sim.franka import top_down
 from taskcond.tasks.base import PrimitiveTask
 from taskcond.tasks.env import KitchenEnv
-from taskcond.tasks.skills import GRASPS, bottom_to_com, carry
+from taskcond.tasks.skills import GRASPS, bottom_to_com, carry, current, nearest_grip
 from taskcond.tasks.trajectory import Waypoint
 
 PAIRS = (
@@ -57,4 +58,9 @@ class MoveInto(PrimitiveTask):
     def waypoints(self, env: KitchenEnv) -> list[Waypoint]:
         a, b = self.objects
         goal, rim = into_goal(env, a, b)
-        return carry(env, a, goal, clearance=rim + 0.04)
+        orientation = None
+        if b.endswith("drawer"):
+            # fingers across the drawer (world y): the hand's long side then stays clear of the front
+            # panel and of the cabinet behind the pulled-out drawer
+            orientation = nearest_grip(np.array(top_down()), current(env)[1])
+        return carry(env, a, goal, clearance=rim + 0.04, orientation=orientation)

@@ -71,24 +71,60 @@ def current(env: KitchenEnv) -> tuple[np.ndarray, np.ndarray, float]:
 
 
 def transit(
-    env: KitchenEnv, goal: np.ndarray, orientation: np.ndarray, gripper: float, z: float = SAFE_Z
+    env: KitchenEnv,
+    goal: np.ndarray,
+    orientation: np.ndarray,
+    gripper: float,
+    z: float = SAFE_Z,
+    rise_orientation: np.ndarray | None = None,
 ) -> list[Waypoint]:
-    """Rise to ``z`` (or stay higher), travel over ``goal`` turning to ``orientation``, go down to it."""
+    """Rise to ``z`` (or stay higher), turning to ``rise_orientation`` if given, travel over ``goal``
+    turning to ``orientation``, go down to it."""
     pos, orn, _ = current(env)
     top = max(z, float(pos[2]))
     return [
-        Waypoint(np.array([pos[0], pos[1], top]), orn, gripper),
+        Waypoint(
+            np.array([pos[0], pos[1], top]), orn if rise_orientation is None else rise_orientation, gripper
+        ),
         Waypoint(np.array([goal[0], goal[1], top]), orientation, gripper),
         Waypoint(np.asarray(goal, float), orientation, gripper),
     ]
 
 
-def pick(env: KitchenEnv, name: str, lift: float = 0.12) -> list[Waypoint]:
-    """Open, come from above, close on ``name`` and lift it by ``lift`` m."""
-    ee, orn = GRASPS[name].pose(env.scene, name)
+def nearest_grip(orientation: np.ndarray, reference: np.ndarray) -> np.ndarray:
+    """Of ``orientation`` (4,) and the same grip turned half a turn about the hand's approach axis (the
+    parallel gripper is symmetric), the one closer to ``reference`` (4,). Turning from a horizontal hand
+    (drawer handle) to a top-down grasp is then a 90-degree pitch, not a half turn that winds the wrist into
+    its joint limits."""
+    flipped = (Rotation.from_quat(orientation) * Rotation.from_euler("z", math.pi)).as_quat()
+    return flipped if abs(np.dot(flipped, reference)) > abs(np.dot(orientation, reference)) else orientation
+
+
+def downward(orientation: np.ndarray) -> np.ndarray | None:
+    """For a hand not pointing down (after a drawer handle), the top-down orientation reached from
+    ``orientation`` (4,) by pitching the hand down about its finger axis; ``None`` if it already points
+    down. Turning to it first keeps the wrist away from its joint limits when the hand then turns about
+    the vertical to a grasp yaw."""
+    rot = Rotation.from_quat(orientation).as_matrix()
+    if rot[2, 2] < -0.9:
+        return None
+    fingers = rot[:, 1]
+    return np.array(top_down(math.atan2(fingers[0], -fingers[1])))
+
+
+def pick(env: KitchenEnv, name: str, lift: float = 0.12, yaw_offset: float | None = None) -> list[Waypoint]:
+    """Open, come from above, close on ``name`` and lift it by ``lift`` m; ``yaw_offset`` (rad) replaces
+    the grasp's own (round objects can be taken at any yaw)."""
+    grasp = GRASPS[name]
+    if yaw_offset is not None:
+        grasp = GraspPose(grasp.height, yaw_offset, grasp.width)
+    ee, orn = grasp.pose(env.scene, name)
+    hand = current(env)[1]
+    level = downward(hand)
+    orn = nearest_grip(orn, hand if level is None else level)
     above = ee + np.array([0, 0, 0.12])
     return [
-        *transit(env, above, orn, OPEN, z=max(SAFE_Z, above[2])),
+        *transit(env, above, orn, OPEN, z=max(SAFE_Z, above[2]), rise_orientation=level),
         Waypoint(ee, orn, OPEN, 0.9),
         Waypoint(ee, orn, CLOSED, GRIP_TIME),
         Waypoint(ee + np.array([0, 0, lift]), orn, CLOSED, 1.0),
@@ -101,21 +137,25 @@ def release(env: KitchenEnv, rise: float = 0.10) -> list[Waypoint]:
     return [Waypoint(pos, orn, OPEN, GRIP_TIME), Waypoint(pos + np.array([0, 0, rise]), orn, OPEN, 0.8)]
 
 
-def carry(env: KitchenEnv, name: str, com_goal: np.ndarray, clearance: float) -> list[Waypoint]:
+def carry(
+    env: KitchenEnv, name: str, com_goal: np.ndarray, clearance: float, orientation: np.ndarray | None = None
+) -> list[Waypoint]:
     """Move the held ``name`` so that its centre of mass reaches ``com_goal`` (3,), travelling with its
-    lowest point at least ``clearance`` m high; the hand keeps its orientation and the measured
-    hand-to-object offset."""
+    lowest point at least ``clearance`` m high; the hand keeps the measured hand-to-object offset and its
+    orientation, or turns to ``orientation`` (4,) on the way (the offset turning with it)."""
     pos, orn, _ = current(env)
     com = env.truth.com(name)
     offset = pos - com
     below = com[2] - env.scene.aabb(name)[0][2]
     travel_z = max(clearance + below + offset[2], float(pos[2]))
-    goal = np.asarray(com_goal, float) + offset
+    end = orn if orientation is None else np.asarray(orientation, float)
+    turn = Rotation.from_quat(end) * Rotation.from_quat(orn).inv()
+    goal = np.asarray(com_goal, float) + turn.apply(offset)
     return [
         Waypoint(np.array([pos[0], pos[1], travel_z]), orn, CLOSED),
-        Waypoint(np.array([goal[0], goal[1], travel_z]), orn, CLOSED),
-        Waypoint(goal, orn, CLOSED, max(0.6, (travel_z - goal[2]) / 0.12)),
-        Waypoint(goal, orn, CLOSED, 0.3),
+        Waypoint(np.array([goal[0], goal[1], travel_z]), end, CLOSED),
+        Waypoint(goal, end, CLOSED, max(0.6, (travel_z - goal[2]) / 0.12)),
+        Waypoint(goal, end, CLOSED, 0.3),
     ]
 
 
