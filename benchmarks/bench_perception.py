@@ -29,6 +29,7 @@ from taskcond.conditions import Relation, SpatialRelation
 from taskcond.sim.camera import CameraSpec
 from taskcond.sim.description import BodyKind, ContainerJoint, GripperSpec, NamedBody, SceneDescription
 from taskcond.sim.perception import DEFAULT_CAMERAS, Perception, PerceptionConfig
+from taskcond.sim.shapes import add_box, add_cylinder, add_tray
 
 TABLE_TOP = 0.0
 SLOTS_Y = (-0.54, -0.18, 0.18, 0.54)
@@ -37,41 +38,6 @@ PANDA_HOME = (0.0, -0.3, 0.0, -2.3, 0.0, 2.0, 0.785)
 
 
 # ------------------------------------------------------------------------------------------ scene building
-def add_box(client: int, half: Sequence[float], pos: Sequence[float], rgba=(0.7, 0.4, 0.3, 1.0)) -> int:
-    col = p.createCollisionShape(p.GEOM_BOX, halfExtents=half, physicsClientId=client)
-    vis = p.createVisualShape(p.GEOM_BOX, halfExtents=half, rgbaColor=rgba, physicsClientId=client)
-    return p.createMultiBody(0.0, col, vis, basePosition=pos, physicsClientId=client)
-
-
-def add_cylinder(client: int, radius: float, height: float, pos: Sequence[float]) -> int:
-    col = p.createCollisionShape(p.GEOM_CYLINDER, radius=radius, height=height, physicsClientId=client)
-    vis = p.createVisualShape(
-        p.GEOM_CYLINDER, radius=radius, length=height, rgbaColor=(0.3, 0.6, 0.4, 1.0), physicsClientId=client
-    )
-    return p.createMultiBody(0.0, col, vis, basePosition=pos, physicsClientId=client)
-
-
-def add_tray(client: int, half: float, wall: float, pos: Sequence[float]) -> int:
-    """Open square box with a 1 cm floor and walls ``wall`` m high; ``pos`` is the centre of its bottom."""
-    t = 0.005
-    halves = [
-        (half, half, t),
-        (t, half, wall / 2),
-        (t, half, wall / 2),
-        (half, t, wall / 2),
-        (half, t, wall / 2),
-    ]
-    z = wall / 2
-    frames = [(0, 0, t), (half - t, 0, z), (t - half, 0, z), (0, half - t, z), (0, t - half, z)]
-    col = p.createCollisionShapeArray(
-        [p.GEOM_BOX] * 5, halfExtents=halves, collisionFramePositions=frames, physicsClientId=client
-    )
-    vis = p.createVisualShapeArray(
-        [p.GEOM_BOX] * 5, halfExtents=halves, visualFramePositions=frames, physicsClientId=client
-    )
-    return p.createMultiBody(0.0, col, vis, basePosition=pos, physicsClientId=client)
-
-
 def add_table(client: int) -> int:
     """1.0 × 1.6 m slab, top at z = 0, centred at x = 0.55."""
     return add_box(client, (0.5, 0.8, 0.01), (0.55, 0.0, TABLE_TOP - 0.01), rgba=(0.8, 0.8, 0.75, 1.0))

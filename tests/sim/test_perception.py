@@ -29,6 +29,7 @@ from taskcond.sim.perception import (
     RelationThresholds,
     spatial_relations,
 )
+from taskcond.sim.shapes import add_box, add_cylinder, add_tray
 
 pytestmark = pytest.mark.sim
 
@@ -47,44 +48,6 @@ def client() -> Iterator[int]:
     p.setAdditionalSearchPath(pybullet_data.getDataPath(), physicsClientId=cid)
     yield cid
     p.disconnect(cid)
-
-
-def add_box(
-    client: int, half: Sequence[float], pos: Sequence[float], mass: float = 0.0, orn=(0, 0, 0, 1)
-) -> int:
-    col = p.createCollisionShape(p.GEOM_BOX, halfExtents=half, physicsClientId=client)
-    vis = p.createVisualShape(
-        p.GEOM_BOX, halfExtents=half, rgbaColor=(0.7, 0.4, 0.3, 1), physicsClientId=client
-    )
-    return p.createMultiBody(mass, col, vis, basePosition=pos, baseOrientation=orn, physicsClientId=client)
-
-
-def add_cylinder(client: int, radius: float, height: float, pos: Sequence[float]) -> int:
-    col = p.createCollisionShape(p.GEOM_CYLINDER, radius=radius, height=height, physicsClientId=client)
-    vis = p.createVisualShape(p.GEOM_CYLINDER, radius=radius, length=height, physicsClientId=client)
-    return p.createMultiBody(0.0, col, vis, basePosition=pos, physicsClientId=client)
-
-
-def add_tray(client: int, half: float, wall: float, pos: Sequence[float], upside_down: bool = False) -> int:
-    """An open square box, 1 cm floor and walls ``wall`` m high; ``pos``: centre of the floor's bottom."""
-    t = 0.005
-    halves = [
-        (half, half, t),
-        (t, half, wall / 2),
-        (t, half, wall / 2),
-        (half, t, wall / 2),
-        (half, t, wall / 2),
-    ]
-    z = wall / 2
-    frames = [(0, 0, t), (half - t, 0, z), (t - half, 0, z), (0, half - t, z), (0, t - half, z)]
-    col = p.createCollisionShapeArray(
-        [p.GEOM_BOX] * 5, halfExtents=halves, collisionFramePositions=frames, physicsClientId=client
-    )
-    vis = p.createVisualShapeArray(
-        [p.GEOM_BOX] * 5, halfExtents=halves, visualFramePositions=frames, physicsClientId=client
-    )
-    orn = p.getQuaternionFromEuler((np.pi, 0, 0)) if upside_down else (0, 0, 0, 1)
-    return p.createMultiBody(0.0, col, vis, basePosition=pos, baseOrientation=orn, physicsClientId=client)
 
 
 def add_cabinet(client: int, pos: Sequence[float], joint_type: int = p.JOINT_PRISMATIC) -> int:
