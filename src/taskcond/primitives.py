@@ -201,10 +201,6 @@ def parse_task(name: str) -> ParsedTask:
     )
 
 
-def primitive_ids() -> list[str]:
-    return list(PRIMITIVES)
-
-
 def get_primitive(pid: str) -> Primitive:
     """Look up a primitive by id, with a one-line error listing the valid ids."""
     try:
@@ -245,10 +241,8 @@ __all__ = [
     "PRIMITIVES",
     "ParsedTask",
     "Primitive",
-    "SpatialRelation",
     "TaskNameError",
     "get_primitive",
     "parse_task",
-    "primitive_ids",
     "task_for_condition",
 ]
