@@ -16,7 +16,6 @@ from taskcond.conditions import (
     GripperState,
     Predicate,
     Relation,
-    SpatialRelation,
     is_gripper,
     normalize_name,
 )
