@@ -9,7 +9,7 @@ end-effector pose.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -32,19 +32,22 @@ GRIP_TIME = 0.6
 
 @dataclass(frozen=True)
 class GraspPose:
-    """Top-down grasp of a free object: end-effector ``height`` (m) above the object's bottom-centre frame,
-    gripper yaw = object yaw + ``yaw_offset`` (rad), object ``width`` (m) between the pads."""
+    """Top-down grasp of a free object: end-effector ``height`` (m) above the object's bottom-centre frame
+    and ``along`` (m) along the object's own x axis from it, gripper yaw = object yaw + ``yaw_offset``
+    (rad), object ``width`` (m) between the pads."""
 
     height: float
     yaw_offset: float
     width: float
+    along: float = 0.0
 
     def pose(self, scene: KitchenScene, name: str) -> tuple[np.ndarray, np.ndarray]:
         """End-effector position (3,) and orientation (4,) grasping ``name`` where it is now."""
         pos, _ = scene.pose(name)
-        yaw = scene.yaw(name) + self.yaw_offset
-        yaw = (yaw + math.pi / 2) % math.pi - math.pi / 2
-        return pos + np.array([0.0, 0.0, self.height]), np.array(top_down(yaw))
+        yaw = scene.yaw(name)
+        offset = np.array([self.along * math.cos(yaw), self.along * math.sin(yaw), self.height])
+        grip_yaw = (yaw + self.yaw_offset + math.pi / 2) % math.pi - math.pi / 2
+        return pos + offset, np.array(top_down(grip_yaw))
 
 
 GRASPS: dict[str, GraspPose] = {
@@ -52,7 +55,9 @@ GRASPS: dict[str, GraspPose] = {
     "bowl": GraspPose(0.022, 0.0, 0.068),
     "mug": GraspPose(0.06, math.pi / 2, 0.07),
     "toothpaste": GraspPose(0.075, math.pi / 2, 0.022),
-    "spatula": GraspPose(0.018, 0.0, 0.022),
+    # on the handle 3.5 cm towards the blade: near the centre of mass (2.3 cm), and far enough from the
+    # robot base for the hand to reach it low down (at 0.24 m in front of the base the elbow is at its limit)
+    "spatula": GraspPose(0.018, 0.0, 0.022, along=0.035),
     "can": GraspPose(0.06, 0.0, 0.06),
     "cube": GraspPose(0.025, 0.0, 0.04),
 }
@@ -117,7 +122,7 @@ def pick(env: KitchenEnv, name: str, lift: float = 0.12, yaw_offset: float | Non
     the grasp's own (round objects can be taken at any yaw)."""
     grasp = GRASPS[name]
     if yaw_offset is not None:
-        grasp = GraspPose(grasp.height, yaw_offset, grasp.width)
+        grasp = replace(grasp, yaw_offset=yaw_offset)
     ee, orn = grasp.pose(env.scene, name)
     hand = current(env)[1]
     level = downward(hand)
