@@ -1,0 +1,379 @@
+"""Skills learned from demonstrations: the paper's "demo data" (Fig. 2, §III-D, §III-E).
+
+A :class:`Skill` is what one oracle demonstration of a primitive task teaches: DMPs (Eq. 1–3) over the
+end-effector position, the orientation profile, the gripper commands and the task condition observed in
+the environment (FromEnv). Skills know nothing of the simulator: a :class:`Demonstration` is plain arrays.
+
+Segmentation (our addition to the paper's single DMP per primitive). One DMP per Cartesian dimension maps
+the demonstration's start and goal affinely onto the new ones (Eq. 2 scales the forcing term by
+``g − y0``), so a via point whose coordinate differs from the goal's is only reproduced when the new start
+and goal are close to the demonstrated ones. A grasp reaches the object, closes and lifts: a single DMP
+started from anywhere but the demonstrated start misses the object in height. We therefore split the
+demonstration where the gripper command changes (the paper keeps the gripper as timed events) and where the
+free-space *approach* ends: at the last standstill before the gripper first touches the target object, or
+before the first gripper event. Each piece is one DMP of the paper's form. The approach piece's goal is
+taken from the environment information (target centre plus the demonstrated offset, Alg. 2 line 3); every
+later piece starts where the previous one ended and keeps its demonstrated displacement (the paper's rule
+for primitives without a target), so contact-rich motions (drawer pulls, lid arcs) replay relative to
+where the hand meets the object.
+"""
+
+from __future__ import annotations
+
+import itertools
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Literal
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from taskcond.conditions import TaskCondition
+from taskcond.dmp import DMPParameters, learn_dmp, load_parameters, save_parameters
+from taskcond.primitives import parse_task
+
+LIBRARY_FORMAT = 1
+"""Version of the on-disk skill library layout; a library with another version is refused."""
+STANDSTILL = 0.01
+"""End-effector speed (m/s) below which a demonstration sample counts as a standstill."""
+MIN_SEGMENT_SAMPLES = 3
+
+Anchor = Literal["target", "relative"]
+
+
+class SkillError(ValueError):
+    """A skill library that is missing, of another format version, or lacks a skill; one line."""
+
+
+@dataclass(frozen=True, eq=False)
+class Demonstration:
+    """One executed oracle demonstration of a primitive task, in plain arrays.
+
+    Attributes:
+        task_name: canonical primitive task name, e.g. ``"grasp bottle"``.
+        task_id: the suite's id, e.g. ``"grasp-bottle"``.
+        times: (n,) s from the start, at the control rate.
+        positions: (n, 3) commanded end-effector positions, metres, world frame.
+        orientations: (n, 4) commanded end-effector quaternions xyzw, world frame.
+        gripper: (n,) gripper commands, 0 open, 1 closed.
+        target: name of the object (or ``"position"``) whose centre anchors the approach; None if none.
+        target_center: (3,) the target's centre at the start, metres, world frame (zeros if no target).
+        target_contact: index of the first sample at which the gripper touched the target, or -1.
+        condition: the task condition derived from the environment (FromEnv), or None.
+    """
+
+    task_name: str
+    task_id: str
+    times: np.ndarray
+    positions: np.ndarray
+    orientations: np.ndarray
+    gripper: np.ndarray
+    target: str | None
+    target_center: np.ndarray
+    target_contact: int = -1
+    condition: TaskCondition | None = None
+
+
+@dataclass(frozen=True, eq=False)
+class Segment:
+    """One DMP-encoded piece of a skill.
+
+    Attributes:
+        dmp: position DMP, 3 dimensions (metres, world frame), learned on the piece.
+        orientations: (m, 4) demonstrated quaternions xyzw over the piece, equally spaced in time.
+        gripper: the gripper command during the piece (0 open, 1 closed).
+        anchor: ``"target"``: the goal is the target's centre plus :attr:`offset`; ``"relative"``: the goal
+            is the piece's start plus the demonstrated displacement ``dmp.goal − dmp.y0``.
+        offset: (3,) demonstrated goal minus the target's centre, metres (``"target"`` anchor only).
+    """
+
+    dmp: DMPParameters
+    orientations: np.ndarray
+    gripper: float
+    anchor: Anchor
+    offset: np.ndarray
+
+    @property
+    def duration(self) -> float:
+        """Demonstrated duration in s (the DMP's τ)."""
+        return self.dmp.tau
+
+    def goal(self, start: np.ndarray, target_center: np.ndarray | None) -> np.ndarray:
+        """Goal (3,) of the piece started at ``start`` (3,); the target's centre (3,) for target anchors
+        (Alg. 2, line 3); without one, the demonstrated displacement is used instead."""
+        if self.anchor == "target" and target_center is not None:
+            return np.asarray(target_center, float) + self.offset
+        return self.dmp.displaced_goal(np.asarray(start, float))
+
+    def orientation(self, fraction: float, start: np.ndarray) -> np.ndarray:
+        """Orientation (4,) xyzw at ``fraction`` ∈ [0, 1] of the piece when it started at orientation
+        ``start`` (4,).
+
+        The demonstrated profile R_d(s) is carried over as ``Δ(s) R_d(s)``. For a relative piece Δ is the
+        constant world-frame rotation between the new and the demonstrated start; for the approach it is
+        slerped from that rotation to identity, so the hand arrives in the demonstrated orientation
+        relative to the world (the target's frame)."""
+        s = float(np.clip(fraction, 0.0, 1.0))
+        k = s * (len(self.orientations) - 1)
+        i = min(int(k), len(self.orientations) - 2) if len(self.orientations) > 1 else 0
+        demo = _slerp(self.orientations[i], self.orientations[min(i + 1, len(self.orientations) - 1)], k - i)
+        offset = Rotation.from_quat(start) * Rotation.from_quat(self.orientations[0]).inv()
+        if self.anchor == "target":
+            weight = s * s * (3 - 2 * s)
+            offset = Rotation.from_rotvec(offset.as_rotvec() * (1.0 - weight))
+        return (offset * Rotation.from_quat(demo)).as_quat()
+
+
+def _slerp(q0: np.ndarray, q1: np.ndarray, t: float) -> np.ndarray:
+    r0 = Rotation.from_quat(q0)
+    delta = r0.inv() * Rotation.from_quat(q1)
+    return (r0 * Rotation.from_rotvec(delta.as_rotvec() * t)).as_quat()
+
+
+@dataclass(frozen=True, eq=False)
+class Skill:
+    """What the framework knows about a primitive task from its demonstration (the demo data, Fig. 2).
+
+    Attributes:
+        task_name: the demonstrated task, e.g. ``"grasp bottle"``.
+        task_id: its suite id.
+        primitive: primitive id.
+        target_role: which object of the task name anchors the approach: its index among the task's
+            objects, ``-1`` for the move primitive's goal position, None for none.
+        segments: the DMP pieces in order.
+        condition: the FromEnv task condition of the demonstration, or None.
+    """
+
+    task_name: str
+    task_id: str
+    primitive: str
+    target_role: int | None
+    segments: tuple[Segment, ...]
+    condition: TaskCondition | None = None
+
+    @property
+    def duration(self) -> float:
+        return sum(s.duration for s in self.segments)
+
+    def target_for(self, objects: tuple[str, ...]) -> str | None:
+        """The name to locate for a task on ``objects``: an object, ``"position"`` or None."""
+        if self.target_role is None:
+            return None
+        if self.target_role < 0:
+            return "position"
+        return objects[self.target_role] if self.target_role < len(objects) else None
+
+
+TARGET_ROLE: dict[str, int | None] = {
+    "grasp": 0,
+    "release": None,
+    "open": 0,
+    "close": 0,
+    "tilt": None,
+    "fold": 0,
+    "move": -1,
+    "move_on_top": 1,
+    "move_into": 1,
+    "move_in_front": 1,
+}
+"""Per primitive id, the task object whose centre is the goal (Alg. 2 line 3): grasp/open/close X → X,
+move A on top of / into / in front of B → B, move A to position → the position; release and tilt have none
+and use the demonstrated displacement (§III-E)."""
+
+
+def target_object(task_name: str) -> str | None:
+    """The object (or ``"position"``) a primitive task's approach aims at."""
+    task = parse_task(task_name)
+    role = TARGET_ROLE.get(task.primitive.id)
+    if role is None:
+        return None
+    return "position" if role < 0 else task.objects[role]
+
+
+def split_points(demo: Demonstration) -> list[int]:
+    """Sample indices where the demonstration is cut into DMP pieces (see the module doc): every gripper
+    command change, and the end of the approach."""
+    n = len(demo.times)
+    changes = [k for k in range(1, n) if abs(demo.gripper[k] - demo.gripper[k - 1]) > 1e-9]
+    cuts = set(changes)
+    first = min([k for k in (demo.target_contact, *changes[:1]) if k > 0], default=-1)
+    if first > 0 and demo.target is not None:
+        speed = np.linalg.norm(np.gradient(demo.positions, demo.times, axis=0), axis=1)
+        still = [k for k in range(MIN_SEGMENT_SAMPLES, first + 1) if speed[k] < STANDSTILL]
+        cuts.add(still[-1] if still else first)
+    return sorted(k for k in cuts if MIN_SEGMENT_SAMPLES <= k <= n - MIN_SEGMENT_SAMPLES)
+
+
+def learn_skill(demo: Demonstration) -> Skill:
+    """Fit the DMP pieces of one demonstration (§III-D locally weighted regression, per piece).
+
+    Raises:
+        SkillError: the demonstration has fewer than 3 samples.
+    """
+    n = len(demo.times)
+    if n < MIN_SEGMENT_SAMPLES:
+        raise SkillError(f"demonstration of {demo.task_name!r} has {n} samples; at least 3 are needed")
+    bounds = [0, *split_points(demo), n - 1]
+    segments = []
+    for index, (lo, hi) in enumerate(itertools.pairwise(bounds)):
+        times = demo.times[lo : hi + 1] - demo.times[lo]
+        positions = demo.positions[lo : hi + 1]
+        anchor: Anchor = "target" if index == 0 and demo.target is not None else "relative"
+        segments.append(
+            Segment(
+                dmp=learn_dmp(times, positions),
+                orientations=np.asarray(demo.orientations[lo : hi + 1], float),
+                gripper=float(demo.gripper[min(lo + 1, hi)]),
+                anchor=anchor,
+                offset=positions[-1] - demo.target_center if anchor == "target" else np.zeros(3),
+            )
+        )
+    task = parse_task(demo.task_name)
+    return Skill(
+        task_name=task.name,
+        task_id=demo.task_id,
+        primitive=task.primitive.id,
+        target_role=TARGET_ROLE.get(task.primitive.id),
+        segments=tuple(segments),
+        condition=demo.condition,
+    )
+
+
+@dataclass
+class SkillLibrary:
+    """Skills by suite task id, saved as one directory of plain files (JSON + NPZ, :data:`LIBRARY_FORMAT`).
+
+    Layout: ``library.json`` (format version, skills with their segments' metadata and FromEnv conditions)
+    and per piece ``<task_id>-<k>.json/.npz`` (the DMP, :func:`taskcond.dmp.save_parameters`) and
+    ``<task_id>-<k>-orientations.npz``.
+    """
+
+    skills: dict[str, Skill] = field(default_factory=dict)
+
+    def add(self, skill: Skill) -> None:
+        self.skills[skill.task_id] = skill
+
+    def __len__(self) -> int:
+        return len(self.skills)
+
+    def lookup(self, task_name: str) -> Skill:
+        """The skill for a primitive task name: the one demonstrated on the same objects, else one of the
+        same primitive on the same target, else any of the same primitive.
+
+        Raises:
+            SkillError: no skill of that primitive.
+        """
+        task = parse_task(task_name)
+        same = [s for s in self.skills.values() if s.primitive == task.primitive.id]
+        for skill in same:
+            if skill.task_name == task.name:
+                return skill
+        target = target_object(task.name)
+        for skill in same:
+            if target is not None and target_object(skill.task_name) == target:
+                return skill
+        if same:
+            return same[0]
+        known = sorted({s.primitive for s in self.skills.values()})
+        raise SkillError(
+            f"no skill for {task.name!r} ({task.primitive.id}); skills exist for: {', '.join(known)}"
+        )
+
+    def save(self, directory: str | Path) -> Path:
+        """Write the library to ``directory`` (created); returns the path of ``library.json``."""
+        directory = Path(directory)
+        directory.mkdir(parents=True, exist_ok=True)
+        entries = []
+        for skill in self.skills.values():
+            pieces = []
+            for k, seg in enumerate(skill.segments):
+                stem = f"{skill.task_id.replace('*', 'star')}-{k}"
+                save_parameters(seg.dmp, directory / f"{stem}.json")
+                np.savez(directory / f"{stem}-orientations.npz", orientations=seg.orientations)
+                pieces.append(
+                    {
+                        "file": stem,
+                        "gripper": seg.gripper,
+                        "anchor": seg.anchor,
+                        "offset": seg.offset.tolist(),
+                    }
+                )
+            entries.append(
+                {
+                    "task_name": skill.task_name,
+                    "task_id": skill.task_id,
+                    "primitive": skill.primitive,
+                    "target_role": skill.target_role,
+                    "segments": pieces,
+                    "condition": None if skill.condition is None else skill.condition.to_dict(),
+                }
+            )
+        path = directory / "library.json"
+        path.write_text(json.dumps({"format": LIBRARY_FORMAT, "skills": entries}, indent=1), encoding="utf-8")
+        return path
+
+    @classmethod
+    def load(cls, directory: str | Path) -> SkillLibrary:
+        """Read a library written by :meth:`save`; no simulator needed.
+
+        Raises:
+            SkillError: missing directory/index, another format version, or unreadable files.
+        """
+        path = Path(directory) / "library.json"
+        try:
+            data = json.loads(path.read_text(encoding="utf-8"))
+        except FileNotFoundError:
+            raise SkillError(f"no skill library at {path.parent}; create it with `taskcond learn`") from None
+        except (OSError, ValueError) as exc:
+            raise SkillError(f"unreadable skill library {path}: {exc}") from None
+        if data.get("format") != LIBRARY_FORMAT:
+            raise SkillError(
+                f"skill library {path.parent} has format {data.get('format')!r}, this taskcond reads "
+                f"{LIBRARY_FORMAT}; re-create it with `taskcond learn`"
+            )
+        library = cls()
+        try:
+            for entry in data["skills"]:
+                segments = []
+                for piece in entry["segments"]:
+                    stem = Path(directory) / piece["file"]
+                    with np.load(f"{stem}-orientations.npz") as arrays:
+                        orientations = arrays["orientations"]
+                    segments.append(
+                        Segment(
+                            dmp=load_parameters(f"{stem}.json"),
+                            orientations=orientations,
+                            gripper=float(piece["gripper"]),
+                            anchor=piece["anchor"],
+                            offset=np.asarray(piece["offset"], float),
+                        )
+                    )
+                cond = entry.get("condition")
+                library.add(
+                    Skill(
+                        task_name=entry["task_name"],
+                        task_id=entry["task_id"],
+                        primitive=entry["primitive"],
+                        target_role=entry["target_role"],
+                        segments=tuple(segments),
+                        condition=None if cond is None else TaskCondition.from_dict(cond),
+                    )
+                )
+        except (KeyError, OSError, ValueError) as exc:
+            raise SkillError(f"corrupt skill library {path.parent}: {exc}") from None
+        return library
+
+
+__all__ = [
+    "LIBRARY_FORMAT",
+    "TARGET_ROLE",
+    "Demonstration",
+    "Segment",
+    "Skill",
+    "SkillError",
+    "SkillLibrary",
+    "learn_skill",
+    "split_points",
+    "target_object",
+]

@@ -1,0 +1,105 @@
+"""What the executor needs from a robot and its environment, independent of the simulator.
+
+The condition-guided executor (Alg. 1, Alg. 2) talks to a :class:`World`: it reads environment
+information (§III-A.2) as an :class:`Observation` in the task-condition vocabulary and commands end-effector
+poses. :class:`taskcond.execution.kitchen.KitchenWorld` implements it over the PyBullet suite; a real robot
+would implement the same few methods.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Protocol
+
+import numpy as np
+
+from taskcond.conditions import Collision, GripperState, Predicate
+
+
+@dataclass(frozen=True, eq=False)
+class Touch:
+    """Two named bodies in contact at ``position`` (3,), metres, world frame."""
+
+    a: str
+    b: str
+    position: np.ndarray
+
+    @property
+    def collision(self) -> Collision:
+        return Collision(self.a, self.b)
+
+
+@dataclass(frozen=True, eq=False)
+class Observation:
+    """Environment information of one moment (§III-A.2).
+
+    Attributes:
+        predicates: every relation and object state that holds now, in the condition vocabulary.
+        centers: object name → centre (3,), metres, world frame (possibly noisy).
+        touches: bodies in contact now.
+    """
+
+    predicates: frozenset[Predicate]
+    centers: dict[str, np.ndarray]
+    touches: tuple[Touch, ...]
+
+    def holds(self, predicate: Predicate) -> bool:
+        return predicate in self.predicates
+
+    def grasped(self, gripper: str = "gripper") -> str | None:
+        """The object ``gripper`` holds, if any."""
+        for pred in self.predicates:
+            if isinstance(pred, GripperState) and pred.gripper == gripper and pred.obj is not None:
+                return pred.obj
+        return None
+
+
+class World(Protocol):
+    """A robot arm with a parallel gripper in an observed environment."""
+
+    dt: float
+    """Control period, s."""
+
+    @property
+    def time(self) -> float:
+        """Simulated (or wall) seconds since the episode began."""
+        ...
+
+    @property
+    def objects(self) -> tuple[str, ...]:
+        """Names of the objects that can appear in conditions."""
+        ...
+
+    def observe(self) -> Observation:
+        """Full environment information (relations, states, centres, contacts)."""
+        ...
+
+    def touches(self) -> tuple[Touch, ...]:
+        """Contacts only: cheap enough for every control step."""
+        ...
+
+    def locate(self, name: str, observation: Observation) -> np.ndarray | None:
+        """Centre (3,) of ``name`` (an object, or ``"position"``: the goal position of a move) in
+        ``observation``, or None if unknown."""
+        ...
+
+    def affords(self, primitive: str, objects: tuple[str, ...]) -> str | None:
+        """Why the primitive (an id of :data:`taskcond.primitives.PRIMITIVES`) cannot act on ``objects``
+        here (an unknown object, opening something without a lid, door or drawer), or None if it can."""
+        ...
+
+    def reach_error(self, position: np.ndarray) -> str | None:
+        """Why the end effector cannot reach ``position`` (3,) m, or None."""
+        ...
+
+    def ee_pose(self) -> tuple[np.ndarray, np.ndarray]:
+        """End-effector position (3,) m and orientation (4,) xyzw, world frame."""
+        ...
+
+    def step(self, position: np.ndarray, orientation: np.ndarray, gripper: float) -> str | None:
+        """Command one control period towards the pose; returns a failure reason (simulation blow-up)
+        or None."""
+        ...
+
+
+__all__ = ["Observation", "Touch", "World"]
