@@ -299,3 +299,20 @@ def test_gripper_events_follow_rollout_progress(params: DMPParameters) -> None:
     assert gripper_command_at(events, runner.progress) == 1.0
     runner.back_up()
     assert gripper_command_at(events, runner.progress) == 0.0
+
+
+def test_unscaled_keeps_the_learned_forcing_and_stops_rescaling() -> None:
+    t = np.linspace(0.0, 1.0, 201)
+    demo = np.stack([0.05 * t + 0.2 * np.sin(np.pi * t), 0.2 * t], axis=1)  # up and back
+    params = learn_dmp(t, demo)
+    plain = params.unscaled(np.array([True, False]))
+    assert_array_equal(plain.goal_scaled, [False, True])
+    x = params.phase(t)
+    assert_allclose(plain.forcing(x, params.y0, params.goal), params.forcing(x, params.y0, params.goal))
+    # a goal on the other side: the scaled form mirrors the bump, the unscaled one keeps it upwards
+    goal = params.y0 + np.array([-0.05, 0.2])
+    mirrored = rollout(params, params.y0, goal, n_steps=200).positions[:, 0]
+    kept = rollout(plain, params.y0, goal, n_steps=200).positions[:, 0]
+    assert mirrored.min() < -0.15
+    assert kept.max() > 0.1
+    assert_allclose(kept[-1], goal[0], atol=0.02)

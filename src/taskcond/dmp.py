@@ -261,6 +261,32 @@ class DMPParameters:
         """(d,) factor multiplying the forcing term: ``g − y0`` where scaled, 1 elsewhere."""
         return np.where(self.goal_scaled, goal - y0, 1.0)
 
+    def unscaled(self, dims: np.ndarray) -> DMPParameters:
+        """The same demonstration with the forcing term of the dimensions ``dims`` ((d,) bool) unscaled:
+        weights multiplied by the demonstration's ``g − y0`` so that the learned forcing is unchanged, and
+        no longer rescaled by a new ``g − y0``.
+
+        Eq. 2's scaling mirrors the movement when the new ``g − y0`` has the opposite sign of the
+        demonstrated one and stretches it without bound when the ratio is large (Ijspeert et al. 2013,
+        §2.1.5; Pastor et al. 2009). A rollout can switch such dimensions to the unscaled form, which
+        keeps the demonstrated shape in absolute units on top of the transition to the new goal.
+        """
+        dims = np.asarray(dims, dtype=bool) & self.goal_scaled
+        weights = np.where(dims[:, None], self.weights * (self.goal - self.y0)[:, None], self.weights)
+        return DMPParameters(
+            weights=weights,
+            centres=self.centres,
+            widths=self.widths,
+            alpha_y=self.alpha_y,
+            beta_y=self.beta_y,
+            alpha_x=self.alpha_x,
+            x0=self.x0,
+            tau=self.tau,
+            y0=self.y0,
+            goal=self.goal,
+            goal_scaled=self.goal_scaled & ~dims,
+        )
+
 
 def default_basis(
     n_basis: int = N_BASIS, alpha_x: float = ALPHA_X, x0: float = X0
@@ -500,6 +526,11 @@ class DMPRollout:
     def velocity(self) -> np.ndarray:
         """(d,) current velocity (a copy)."""
         return self._velocity.copy()
+
+    @property
+    def kept(self) -> int:
+        """Number of past steps :meth:`back_up` can return to."""
+        return len(self._history)
 
     def set_goal(self, goal: np.ndarray) -> None:
         """Change the goal g from now on; the phase, start and current state are kept."""
