@@ -51,7 +51,8 @@ class GraspPose:
 
 
 GRASPS: dict[str, GraspPose] = {
-    "bottle": GraspPose(0.07, 0.0, 0.06),
+    # the upper body, palm (3.5 cm above the end-effector point) clear of the neck's top at 0.13 m
+    "bottle": GraspPose(0.10, 0.0, 0.06),
     "bowl": GraspPose(0.022, 0.0, 0.068),
     "mug": GraspPose(0.06, math.pi / 2, 0.07),
     "toothpaste": GraspPose(0.075, math.pi / 2, 0.022),
