@@ -45,9 +45,17 @@ from typing import Any, Literal, Protocol
 
 import numpy as np
 
-from taskcond.conditions import Collision, GripperState, Predicate, SpatialRelation, TaskCondition, is_gripper
-from taskcond.dmp import DMPRollout
-from taskcond.execution.skills import Segment, SkillError, SkillLibrary
+from taskcond.conditions import (
+    Collision,
+    ContainerState,
+    GripperState,
+    Predicate,
+    SpatialRelation,
+    TaskCondition,
+    is_gripper,
+)
+from taskcond.dmp import DMPParameters, DMPRollout
+from taskcond.execution.skills import Segment, SkillError, SkillLibrary, target_object
 from taskcond.execution.world import Observation, Touch, World
 from taskcond.primitives import TaskNameError, parse_task, task_for_condition
 
@@ -240,6 +248,15 @@ class Executor:
             if attempt == 0 and cond.post_conditions and not _missing(cond.post_conditions, obs):
                 self._emit("skip", task, depth, f"{task}: post-conditions already hold, skipped")
                 return
+            if attempt > 0 and (undo := _undoing(cond, obs)):
+                self._emit(
+                    "post_missing",
+                    task,
+                    depth,
+                    f"{task}: not tried again, its pre-condition '{undo[0]}' would undo '{undo[1]}'",
+                    {"missing": [str(m) for m in missing], "attempt": attempt, "final": True},
+                )
+                return
             self.satisfy(cond, (*stack, task), depth, deadline)
             self.control(task, cond, depth, deadline)
             missing = _missing(cond.post_conditions, self.world.observe())
@@ -313,18 +330,18 @@ class Executor:
         """Alg. 2: roll out the skill's DMPs towards goals from the environment information; with a
         condition, back up and move the goal on every unallowed collision."""
         world, cfg = self.world, self.config
-        parsed = parse_task(task)
-        try:
-            skill = self.library.lookup(task)
-        except SkillError as exc:
-            raise ExecutionError(str(exc), "no_skill") from None
         obs = world.observe()
-        target_name = skill.target_for(parsed.objects)
+        target_name = target_object(task)
         target = world.locate(target_name, obs) if target_name is not None else None
         if target_name is not None and target is None:
             raise ExecutionError(
                 f"{target_name!r} is not perceived; cannot aim {task!r} at it", "not_perceived"
             )
+        here, here_q = world.ee_pose()
+        try:
+            skill = self.library.lookup(task, here - target if target is not None else here, here_q)
+        except SkillError as exc:
+            raise ExecutionError(str(exc), "no_skill") from None
         checked = self._checked_bodies(obs)
         baseline = {t.collision for t in obs.touches}
         allowed = set(cond.collisions) if cond is not None else set()
@@ -348,7 +365,8 @@ class Executor:
                     f"goal {_fmt(goal)} of {task!r} is out of reach: {reason}", "unreachable"
                 )
             tau = self._duration(seg, start, goal)
-            rollout = DMPRollout(seg.dmp, start, goal, tau=tau, history=cfg.backup_points)
+            params = _conditioned(seg, start, goal)
+            rollout = DMPRollout(params, start, goal, tau=tau, history=cfg.backup_points)
             n = max(1, math.ceil(tau / world.dt - 1e-9))
             k = 0
             while k < n:
@@ -360,7 +378,7 @@ class Executor:
                 touch = self._unallowed(world.touches(), checked, seg, baseline, allowed)
                 if touch is None:
                     continue
-                back = min(cfg.backup_points, k)
+                back = min(cfg.backup_points, k, rollout.kept)
                 if back < 1:
                     continue
                 state = rollout.back_up(back)
@@ -452,6 +470,37 @@ class Executor:
         return ExecutionResult(
             completed, failure, kind, self.events, dict(self.conditions), self.adjustments, self.raised
         )
+
+
+MAX_STRETCH = 3.0
+"""Largest ratio of new to demonstrated goal offset per dimension that keeps Eq. 2's scaling."""
+
+
+def _conditioned(seg: Segment, start: np.ndarray, goal: np.ndarray) -> DMPParameters:
+    """The piece's DMP for a movement from ``start`` to ``goal`` (3,): Eq. 2's scaled forcing term where
+    the new offset ``goal − start`` keeps the demonstrated sign and at most :data:`MAX_STRETCH` times its
+    size, the unscaled term elsewhere (:meth:`DMPParameters.unscaled`), so that a demonstration is never
+    replayed mirrored or blown up."""
+    dmp = seg.dmp
+    demo = dmp.goal - dmp.y0
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ratio = np.where(dmp.goal_scaled, (np.asarray(goal) - np.asarray(start)) / demo, 1.0)
+    bad = dmp.goal_scaled & ((ratio < 0) | (np.abs(ratio) > MAX_STRETCH))
+    return dmp.unscaled(bad) if bad.any() else dmp
+
+
+def _undoing(cond: TaskCondition, obs: Observation) -> tuple[Predicate, Predicate] | None:
+    """A pre-condition of ``cond`` that does not hold and whose achievement would undo a post-condition
+    that does (``gripper not grasping`` against ``gripper grasping bowl``, ``box closed`` against ``box
+    open``): trying the primitive again must not throw away what it achieved."""
+    held = [q for q in cond.post_conditions if obs.holds(q)]
+    for p in _missing(cond.pre_conditions, obs):
+        for q in held:
+            if isinstance(p, GripperState) and isinstance(q, GripperState) and p.gripper == q.gripper:
+                return p, q
+            if isinstance(p, ContainerState) and isinstance(q, ContainerState) and p.container == q.container:
+                return p, q
+    return None
 
 
 def _about_gripper_place(pred: Predicate) -> bool:

@@ -6,8 +6,10 @@ This is the only module of :mod:`taskcond.execution` that knows the simulator.
 
 from __future__ import annotations
 
+import time
 from collections.abc import Callable, Iterable
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -17,12 +19,13 @@ from taskcond.execution.sources import condition_from_environment
 from taskcond.execution.world import Observation, Touch
 from taskcond.sim.perception import EnvironmentInfo, Perception, PerceptionConfig
 from taskcond.sim.recording import VideoRecorder
-from taskcond.tasks.base import PrimitiveTask
+from taskcond.tasks.base import PrimitiveTask, Task, TaskInfo
 from taskcond.tasks.env import KitchenEnv
 from taskcond.tasks.registry import get_task, list_tasks, make
 
-REACH = 0.855
-"""Panda reach (m) from the first joint's axis; farther goals are refused."""
+REACH = 0.95
+"""Reach (m) of the Panda's end effector (between the fingertips) from its shoulder: 0.855 m to the
+flange plus the hand; farther goals are refused."""
 SHOULDER = np.array([0.0, 0.0, 0.333])
 """Position (m, world frame) of the Panda's shoulder (joint 2) with the base at the origin."""
 VIDEO_EVERY = 2
@@ -64,6 +67,11 @@ class KitchenWorld:
         self._contacts = Perception(description, PerceptionConfig(check_visibility=False))
         self._rng = np.random.default_rng(seed)
         self._objects = tuple(b.name for b in description.bodies if b.kind != "robot")
+        self._free = tuple(env.scene.free_objects)
+        self._joints = tuple(env.scene.joints)
+        self._interiors = tuple(env.scene.interiors)
+        self.env_seconds = 0.0
+        """Wall-clock seconds spent inside the environment's step (IK and physics)."""
 
     @property
     def time(self) -> float:
@@ -86,18 +94,17 @@ class KitchenWorld:
         return observation.centers.get(name)
 
     def affords(self, primitive: str, objects: tuple[str, ...]) -> str | None:
-        scene = self.env.scene
         unknown = [o for o in objects if o not in self._objects]
         if unknown:
             return f"{', '.join(map(repr, unknown))} not in the scene (objects: {', '.join(self._objects)})"
-        free = scene.free_objects
-        if primitive in ("open", "close") and objects[0] not in scene.joints:
-            return f"{objects[0]!r} has no lid, door or drawer (containers: {', '.join(scene.joints)})"
+        free, joints, interiors = self._free, self._joints, self._interiors
+        if primitive in ("open", "close") and objects[0] not in joints:
+            return f"{objects[0]!r} has no lid, door or drawer (containers: {', '.join(joints)})"
         carried = ("grasp", "release", "tilt", "move", "move_on_top", "move_into", "move_in_front")
         if primitive in carried and objects[0] not in free:
             return f"{objects[0]!r} cannot be picked up (movable objects: {', '.join(free)})"
-        if primitive == "move_into" and objects[1] not in scene.interiors:
-            return f"{objects[1]!r} is not a container (containers: {', '.join(scene.interiors)})"
+        if primitive == "move_into" and objects[1] not in interiors:
+            return f"{objects[1]!r} is not a container (containers: {', '.join(interiors)})"
         if primitive == "fold":
             return "folding needs the cloth and two arms, which this scene does not have"
         return None
@@ -115,51 +122,63 @@ class KitchenWorld:
         return ee.position, ee.orientation
 
     def step(self, position: np.ndarray, orientation: np.ndarray, gripper: float) -> str | None:
+        start = time.perf_counter()
         _, _, terminated, _, info = self.env.step(np.concatenate([position, orientation, [gripper]]))
+        self.env_seconds += time.perf_counter() - start
         if self.recorder is not None and self.env.steps % VIDEO_EVERY == 0:
             self.recorder.add(self.env.render())
         return info["failure"] if terminated else None
 
 
-# ----------------------------------------------------------------------------------- demonstrations
-def record_demonstration(task_id: str, seed: int = 0) -> tuple[Demonstration, bool]:
-    """Run the oracle of a primitive suite task once and record it with the environment information
-    before, during (contacts) and after it; returns the demonstration and whether the oracle succeeded.
+class FreeTask(Task):
+    """A free instruction's episode: the default scene (containers closed, arm home); the suite has no
+    success check for it."""
 
-    Raises:
-        ValueError: ``task_id`` is not a primitive task of the registry.
-    """
-    task = get_task(task_id)
-    if not isinstance(task, PrimitiveTask):
-        raise ValueError(f"{task_id!r} is not a primitive task; demonstrations are of primitive tasks")
-    env = make(task_id)
+    max_steps = 10**9
+
+    def __init__(self, label: str, steps: tuple[str, ...] = ()) -> None:
+        self.info = TaskInfo("instruction", "long-horizon", steps, (), label)
+
+    def success(self, env: Any) -> bool:
+        return False
+
+
+def scene_objects() -> tuple[tuple[str, ...], Callable[[str, tuple[str, ...]], str | None]]:
+    """The default scene's object names and what each primitive affords there (for decomposition)."""
+    env = KitchenEnv(FreeTask(""))
     try:
-        env.reset(seed=seed)
         world = KitchenWorld(env)
-        before = world.observe()
-        name = task.info.task_name
-        target = target_object(name)
-        center = world.locate(target, before) if target is not None else None
-        touched: set[Collision] = set()
-        contact = -1
-        rows: list[np.ndarray] = []
-        for trajectory in task.plans(env):
-            for i in range(len(trajectory)):
-                action = trajectory.action(i)
-                rows.append(action)
-                env.step(action)
-                for touch in world.touches():
-                    touched.add(touch.collision)
-                    if contact < 0 and target is not None and {touch.a, touch.b} == {"gripper", target}:
-                        contact = len(rows) - 1
-        for _ in range(5):
-            env.step(rows[-1])
-        after = world.observe()
-        success = bool(task.success(env))
+        objects, affords = world.objects, world.affords
+        return objects, affords
     finally:
         env.close()
+
+
+# ----------------------------------------------------------------------------------- demonstrations
+def _record_step(world: KitchenWorld, step: PrimitiveTask, task_id: str) -> Demonstration:
+    """Execute one primitive oracle from the current state and record it (commanded end-effector
+    trajectory, environment information before and after, contacts during)."""
+    env = world.env
+    before = world.observe()
+    name = step.info.task_name
+    target = target_object(name)
+    center = world.locate(target, before) if target is not None else None
+    touched: set[Collision] = set()
+    contact = -1
+    rows: list[np.ndarray] = []
+    for trajectory in step.plans(env):
+        for i in range(len(trajectory)):
+            rows.append(trajectory.action(i))
+            env.step(rows[-1])
+            for touch in world.touches():
+                touched.add(touch.collision)
+                if contact < 0 and target is not None and {touch.a, touch.b} == {"gripper", target}:
+                    contact = len(rows) - 1
+    for _ in range(5):
+        env.step(rows[-1])
+    after = world.observe()
     actions = np.array(rows)
-    demo = Demonstration(
+    return Demonstration(
         task_name=name,
         task_id=task_id,
         times=np.arange(len(actions)) * env.dt,
@@ -171,12 +190,43 @@ def record_demonstration(task_id: str, seed: int = 0) -> tuple[Demonstration, bo
         target_contact=contact,
         condition=condition_from_environment(name, before.predicates, after.predicates, touched),
     )
-    return demo, success
+
+
+def record_demonstrations(task_id: str, seed: int = 0) -> tuple[list[Demonstration], bool]:
+    """Run the oracle of a suite task once and record a demonstration of each primitive it performs: one
+    for a primitive task, one per step for a long-horizon task (each step planned from the state the
+    previous one left). Returns the demonstrations and whether the oracle succeeded.
+
+    Raises:
+        ValueError: ``task_id`` has a step that is not a primitive task (it cannot be demonstrated).
+    """
+    task = get_task(task_id)
+    steps = [task] if isinstance(task, PrimitiveTask) else list(getattr(task, "steps", ()))
+    if not steps or not all(isinstance(s, PrimitiveTask) for s in steps):
+        raise ValueError(f"{task_id!r} has no primitive steps to demonstrate")
+    env = make(task_id)
+    try:
+        env.reset(seed=seed)
+        world = KitchenWorld(env)
+        demos = [
+            _record_step(world, step, task_id if step is task else f"{task_id}.{k}-{step.info.id}")
+            for k, step in enumerate(steps, start=1)
+        ]
+        success = bool(task.success(env))
+    finally:
+        env.close()
+    return demos, success
 
 
 def primitive_task_ids() -> list[str]:
     """Suite ids of every primitive task the Franka can demonstrate."""
     return [t.id for t in list_tasks() if t.kind == "primitive" and t.primitive != "fold"]
+
+
+CONTEXTS = ("LHT1", "LHT2", "LHT3")
+"""Long-horizon oracles whose steps are demonstrated too by default: the same primitives started from the
+states a preceding primitive leaves (the hand at a drawer handle, above a box), which demonstrations
+started from the home pose do not show. The novel-object tasks LHT1* and LHT2* are left out."""
 
 
 def learn_library(
@@ -186,22 +236,23 @@ def learn_library(
     tries: int = 5,
     progress: Callable[[str, bool], None] | None = None,
 ) -> SkillLibrary:
-    """Record one successful oracle demonstration per primitive task and learn its skill (§III-D).
+    """Record oracle demonstrations and learn a skill from each (§III-D).
 
     Args:
         directory: where to save the library (plain files); not saved if None.
-        task_ids: suite ids to learn, default all primitive tasks.
-        seed: seed of the first try; a failed demonstration is recorded again with the next seed, up to
+        task_ids: suite ids to demonstrate, default every primitive task and :data:`CONTEXTS`.
+        seed: seed of the first try; a failed oracle run is recorded again with the next seed, up to
             ``tries`` times, and the last one is kept if none succeeded.
-        progress: called with each task id and whether its demonstration succeeded.
+        progress: called with each task id and whether its oracle succeeded.
     """
     library = SkillLibrary()
-    for task_id in primitive_task_ids() if task_ids is None else task_ids:
+    for task_id in [*primitive_task_ids(), *CONTEXTS] if task_ids is None else task_ids:
         for k in range(tries):
-            demo, ok = record_demonstration(task_id, seed + k)
+            demos, ok = record_demonstrations(task_id, seed + k)
             if ok:
                 break
-        library.add(learn_skill(demo))
+        for demo in demos:
+            library.add(learn_skill(demo))
         if progress is not None:
             progress(task_id, ok)
     if directory is not None:
@@ -209,4 +260,12 @@ def learn_library(
     return library
 
 
-__all__ = ["KitchenWorld", "learn_library", "primitive_task_ids", "record_demonstration"]
+__all__ = [
+    "CONTEXTS",
+    "FreeTask",
+    "KitchenWorld",
+    "learn_library",
+    "primitive_task_ids",
+    "record_demonstrations",
+    "scene_objects",
+]

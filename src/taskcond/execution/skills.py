@@ -156,6 +156,15 @@ class Skill:
     def duration(self) -> float:
         return sum(s.duration for s in self.segments)
 
+    @property
+    def start_offset(self) -> np.ndarray:
+        """(3,) where the demonstration started: relative to the target's centre for a skill with a
+        target, else in the world frame; metres."""
+        first = self.segments[0]
+        if first.anchor == "target":
+            return first.dmp.y0 - (first.dmp.goal - first.offset)
+        return first.dmp.y0
+
     def target_for(self, objects: tuple[str, ...]) -> str | None:
         """The name to locate for a task on ``objects``: an object, ``"position"`` or None."""
         if self.target_role is None:
@@ -257,28 +266,41 @@ class SkillLibrary:
     def __len__(self) -> int:
         return len(self.skills)
 
-    def lookup(self, task_name: str) -> Skill:
-        """The skill for a primitive task name: the one demonstrated on the same objects, else one of the
-        same primitive on the same target, else any of the same primitive.
+    def lookup(
+        self, task_name: str, start: np.ndarray | None = None, orientation: np.ndarray | None = None
+    ) -> Skill:
+        """The skill for a primitive task name: among those demonstrated on the same objects (else of the
+        same primitive on the same target, else of the same primitive), the one whose demonstration started
+        nearest to ``start`` (3,) — the end effector's position relative to the target's centre, or in the
+        world frame for primitives without a target — and ``orientation`` (4,) xyzw; a tenth of a radian
+        counts as a centimetre.
 
         Raises:
             SkillError: no skill of that primitive.
         """
         task = parse_task(task_name)
         same = [s for s in self.skills.values() if s.primitive == task.primitive.id]
-        for skill in same:
-            if skill.task_name == task.name:
-                return skill
         target = target_object(task.name)
-        for skill in same:
-            if target is not None and target_object(skill.task_name) == target:
-                return skill
-        if same:
-            return same[0]
-        known = sorted({s.primitive for s in self.skills.values()})
-        raise SkillError(
-            f"no skill for {task.name!r} ({task.primitive.id}); skills exist for: {', '.join(known)}"
-        )
+        candidates = [s for s in same if s.task_name == task.name] or [
+            s for s in same if target is not None and target_object(s.task_name) == target
+        ]
+        candidates = candidates or same
+        if not candidates:
+            known = sorted({s.primitive for s in self.skills.values()})
+            raise SkillError(
+                f"no skill for {task.name!r} ({task.primitive.id}); skills exist for: {', '.join(known)}"
+            )
+        if start is None or len(candidates) == 1:
+            return candidates[0]
+
+        def distance(skill: Skill) -> float:
+            d = float(np.linalg.norm(skill.start_offset - np.asarray(start, float)))
+            if orientation is not None:
+                first = Rotation.from_quat(skill.segments[0].orientations[0])
+                d += 0.1 * (first.inv() * Rotation.from_quat(orientation)).magnitude()
+            return d
+
+        return min(candidates, key=distance)
 
     def save(self, directory: str | Path) -> Path:
         """Write the library to ``directory`` (created); returns the path of ``library.json``."""

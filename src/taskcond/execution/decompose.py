@@ -1,0 +1,98 @@
+"""From a free instruction to primitive task names with the LLM (beyond the paper, which runs long-horizon
+tasks as given sequences of primitive task names).
+
+The prompt (``prompts/<version>/decompose.txt``) lists the primitive task forms of
+:data:`taskcond.primitives.PRIMITIVES` and the scene's objects, with three of the paper's long-horizon
+tasks as examples. Every answer line must parse as a primitive task (:func:`taskcond.primitives.parse_task`)
+on objects of the scene; an invalid answer is shown its error and asked again, a bounded number of times.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+
+from taskcond.generator import load_prompt
+from taskcond.llm.base import ChatBackend, ChatMessage, ChatRequest, LLMError, Sampling
+from taskcond.primitives import PRIMITIVES, TaskNameError, parse_task
+
+MAX_STEPS = 12
+"""Longest plan accepted."""
+
+
+class DecompositionError(ValueError):
+    """The instruction could not be turned into primitive tasks; one line."""
+
+
+def parse_plan(
+    text: str, objects: Sequence[str], affords: Callable[[str, tuple[str, ...]], str | None] | None = None
+) -> list[str]:
+    """Primitive task names from an answer, one per non-empty line (list markers and numbering ignored).
+
+    Raises:
+        DecompositionError: no task, too many, a line that is no primitive task, or an object not in
+            ``objects`` / a task ``affords`` refuses.
+    """
+    tasks = []
+    for raw in text.splitlines():
+        line = raw.strip().lstrip("-*0123456789.) ").strip().rstrip(".")
+        if not line:
+            continue
+        if line.lower().startswith(("instruction:", "tasks:")):
+            break
+        try:
+            task = parse_task(line)
+        except TaskNameError as exc:
+            raise DecompositionError(f"{line!r} is not a primitive task ({exc})") from None
+        unknown = [o for o in task.objects if o not in objects]
+        if unknown:
+            raise DecompositionError(
+                f"{line!r} names {', '.join(unknown)}, not in the scene ({', '.join(objects)})"
+            )
+        if affords is not None and (reason := affords(task.primitive.id, task.objects)) is not None:
+            raise DecompositionError(f"{line!r}: {reason}")
+        tasks.append(task.name)
+    if not tasks:
+        raise DecompositionError("the answer names no primitive task")
+    if len(tasks) > MAX_STEPS:
+        raise DecompositionError(f"{len(tasks)} tasks; at most {MAX_STEPS} are accepted")
+    return tasks
+
+
+def decompose(
+    instruction: str,
+    backend: ChatBackend,
+    objects: Sequence[str],
+    affords: Callable[[str, tuple[str, ...]], str | None] | None = None,
+    max_retries: int = 2,
+    version: str = "v1",
+) -> list[str]:
+    """Ask the LLM for the primitive tasks of ``instruction`` in order.
+
+    Raises:
+        DecompositionError: no valid plan within ``1 + max_retries`` answers (the last error is given).
+        LLMError: the backend failed.
+    """
+    patterns = "\n".join(f"  {p.pattern}" for p in PRIMITIVES.values())
+    prompt = load_prompt("decompose", version).substitute(
+        patterns=patterns, objects=", ".join(objects), instruction=" ".join(instruction.split())
+    )
+    messages = [ChatMessage("user", prompt)]
+    error = ""
+    for _ in range(max_retries + 1):
+        response = backend.chat(
+            ChatRequest(
+                tuple(messages), Sampling(temperature=0.0, max_tokens=160), stop=("\n\n", "Instruction:")
+            )
+        )
+        try:
+            return parse_plan(response.text, objects, affords)
+        except DecompositionError as exc:
+            error = str(exc)
+            messages += [
+                ChatMessage("assistant", response.text),
+                ChatMessage("user", f"That answer is not valid: {error}. Answer again, one task per line."),
+            ]
+    raise DecompositionError(f"no valid plan for {instruction!r}: {error}")
+
+
+__all__ = ["DecompositionError", "LLMError", "decompose", "parse_plan"]
