@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import json
 import sys
+from dataclasses import asdict
 from pathlib import Path
 from typing import Annotated, NoReturn
 
@@ -24,7 +25,9 @@ app = typer.Typer(
     pretty_exceptions_enable=False,
 )
 eval_app = typer.Typer(
-    help="Measure the framework: condition generation/generalization (Table II).", no_args_is_help=True
+    help="Measure the framework: condition generation/generalization (Table II), primitive and "
+    "long-horizon execution (Tables III, IV).",
+    no_args_is_help=True,
 )
 app.add_typer(eval_app, name="eval")
 
@@ -210,6 +213,306 @@ def eval_conditions(
             f"generation {result.median_seconds('generation'):.2f}, "
             f"generalization {result.median_seconds('generalization'):.2f}"
         )
+
+
+MethodOption = Annotated[
+    str,
+    typer.Option(
+        "--method",
+        help="Execution method: llm (conditions from the LLM), env (conditions from the demonstrations' "
+        "environment information), none (DMP only).",
+    ),
+]
+NoiseOption = Annotated[
+    float,
+    typer.Option("--noise", min=0.0, help="Perception noise sigma in metres on object centres and boxes."),
+]
+SkillsOption = Annotated[
+    Path | None,
+    typer.Option("--skills", help="Skill library directory (default: the user cache; learned on first use)."),
+]
+
+
+def _sim_import() -> None:
+    try:
+        import pybullet  # noqa: F401
+    except ImportError as exc:
+        fail(f"execution needs the [sim] extra ({exc.name} missing): pip install 'taskcond[sim]'")
+
+
+def _library(skills: Path | None):
+    from taskcond.execution.runner import load_library
+    from taskcond.execution.skills import SkillError
+
+    def told(task_id: str, ok: bool) -> None:
+        typer.echo(f"  demonstrated {task_id}{'' if ok else ' (oracle failed; kept anyway)'}", err=True)
+
+    try:
+        from taskcond.execution.runner import default_library_dir
+
+        directory = skills or default_library_dir()
+        if not (directory / "library.json").exists():
+            typer.echo(f"learning the skill library into {directory} (once, about a minute)", err=True)
+        return load_library(directory, progress=told)
+    except SkillError as exc:
+        fail(str(exc))
+
+
+@app.command()
+def learn(
+    out: Annotated[
+        Path | None, typer.Option("--out", help="Directory of the library (default: the user cache).")
+    ] = None,
+    task: Annotated[
+        list[str] | None,
+        typer.Option(
+            "--task", help="Only these suite tasks (repeatable; default all primitives and LHT1-3)."
+        ),
+    ] = None,
+    seed: Annotated[int, typer.Option("--seed", help="Seed of the first demonstration of each task.")] = 0,
+) -> None:
+    """Record oracle demonstrations and store the skill library: DMPs and FromEnv conditions (§III-D)."""
+    _sim_import()
+    from tqdm import tqdm
+
+    from taskcond.execution.kitchen import CONTEXTS, learn_library, primitive_task_ids
+    from taskcond.execution.runner import default_library_dir
+    from taskcond.tasks.registry import UnknownTaskError, get_task
+
+    ids = task or [*primitive_task_ids(), *CONTEXTS]
+    try:
+        for tid in ids:
+            get_task(tid)
+    except UnknownTaskError as exc:
+        fail(str(exc))
+    directory = out or default_library_dir()
+    bar = tqdm(total=len(ids), desc="demonstrations", unit="task", file=sys.stderr, disable=None)
+    failed: list[str] = []
+
+    def told(task_id: str, ok: bool) -> None:
+        bar.update()
+        if not ok:
+            failed.append(task_id)
+
+    try:
+        library = learn_library(directory, ids, seed=seed, progress=told)
+    except ValueError as exc:
+        fail(str(exc))
+    bar.close()
+    typer.echo(f"{len(library)} skills from {len(ids)} tasks in {directory}")
+    if failed:
+        typer.echo(f"oracle failed on every try for: {', '.join(failed)} (their last try was kept)", err=True)
+
+
+def _slug(text: str) -> str:
+    return "-".join("".join(c if c.isalnum() else " " for c in text.lower()).split())[:60] or "run"
+
+
+@app.command()
+def run(
+    spec: Annotated[
+        str,
+        typer.Argument(
+            help='A suite task id (LHT1, grasp-bottle), a primitive task ("open box") or a free '
+            'instruction ("pick up the bottle, put it into the box and close the box").'
+        ),
+    ],
+    method: MethodOption = "llm",
+    seed: Annotated[int, typer.Option("--seed", help="Seed of the scene and of the perception noise.")] = 0,
+    video: Annotated[
+        Path | None,
+        typer.Option("--video", help="Video (.mp4/.gif); default runs/<task>-<method>-<seed>.mp4."),
+    ] = None,
+    no_video: Annotated[bool, typer.Option("--no-video", help="Do not record a video.")] = False,
+    trace: Annotated[
+        Path | None, typer.Option("--trace", help="JSON trace; default runs/<task>-<method>-<seed>.json.")
+    ] = None,
+    gui: Annotated[bool, typer.Option("--gui", help="Show the PyBullet GUI.")] = False,
+    noise: NoiseOption = 0.005,
+    llm: LlmOption = None,
+    skills: SkillsOption = None,
+) -> None:
+    """Perform a long-horizon task: conditions, Alg. 1 pre-condition satisfaction, Alg. 2 DMP control."""
+    _sim_import()
+    from taskcond.execution.decompose import DecompositionError, decompose
+    from taskcond.execution.executor import METHODS
+    from taskcond.execution.kitchen import scene_objects
+    from taskcond.execution.runner import make_source, plan_run, run_episode
+
+    if method not in METHODS:
+        fail(f"--method {method!r}: use one of {', '.join(METHODS)}")
+    if video is not None and video.suffix.lower() not in (".mp4", ".gif"):
+        fail(f"--video {video}: use a .mp4 or .gif file name")
+
+    def decomposer(instruction: str) -> list[str]:
+        from taskcond.llm.config import LLMConfig, make_backend
+
+        objects, affords = scene_objects()
+        typer.echo("decomposing the instruction with the LLM ...", err=True)
+        return decompose(instruction, make_backend(LLMConfig.load(llm)), objects, affords)
+
+    try:
+        plan = plan_run(spec, decomposer)
+    except (DecompositionError, LLMError, ValueError) as exc:
+        fail(str(exc))
+    typer.echo(f"task: {plan.label}" + (" (decomposed by the LLM)" if plan.decomposed else ""))
+    for k, step in enumerate(plan.steps, start=1):
+        typer.echo(f"  {k}. {step}")
+    library = _library(skills)
+    try:
+        source = make_source(method, library, llm)  # type: ignore[arg-type]
+    except (LLMError, ValueError) as exc:
+        fail(str(exc))
+    stem = Path("runs") / f"{_slug(plan.label)}-{method}-{seed}"
+    video_path = None if no_video else (video or stem.with_suffix(".mp4"))
+    trace_path = trace or stem.with_suffix(".json")
+
+    def show(event) -> None:
+        typer.echo(f"{event.time:7.2f}s {'  ' * event.depth}{event.message}")
+
+    result = run_episode(plan, method, seed, library, source, noise, video_path, gui, show)  # type: ignore[arg-type]
+    trace_path.parent.mkdir(parents=True, exist_ok=True)
+    trace_path.write_text(
+        json.dumps(
+            {"plan": {"label": plan.label, "task_id": plan.task_id, "steps": list(plan.steps)}}
+            | asdict(result),
+            indent=1,
+        ),
+        encoding="utf-8",
+    )
+    if result.failure is not None:
+        outcome = f"FAILED ({result.reason})"
+    else:
+        outcome = "succeeded" if result.success else "finished (a free instruction has no success check)"
+    typer.echo(
+        f"{plan.label}: {outcome}; {result.sim_seconds:.1f} s simulated, {result.wall_seconds:.1f} s wall"
+    )
+    typer.echo(f"trace: {trace_path}" + (f"; video: {video_path}" if video_path else ""))
+    if result.failure is not None:
+        raise typer.Exit(1)
+
+
+def _eval_execution(
+    kind: str,
+    episodes: int,
+    method: list[str] | None,
+    workers: int | None,
+    as_json: bool,
+    out: Path | None,
+    task: list[str] | None,
+    seed: int,
+    noise: float,
+    llm: str | None,
+    skills: Path | None,
+) -> None:
+    _sim_import()
+    from tqdm import tqdm
+
+    from taskcond.execution.executor import METHODS
+    from taskcond.execution.runner import (
+        cpu_count,
+        default_library_dir,
+        eval_task_ids,
+        evaluate,
+        jobs_for,
+        make_source,
+        plan_run,
+        summarize,
+    )
+
+    methods = method or list(METHODS)
+    bad = [m for m in methods if m not in METHODS]
+    if bad:
+        fail(f"--method {bad[0]!r}: use one of {', '.join(METHODS)}")
+    ids = eval_task_ids(kind)
+    if task:
+        unknown = [t for t in task if t not in ids]
+        if unknown:
+            fail(f"{unknown[0]!r} is not a {kind} task of the evaluation; valid: {', '.join(ids)}")
+        ids = task
+    library = _library(skills)
+    if "llm" in methods:  # generate every condition once here, so that the workers read them from the cache
+        try:
+            source = make_source("llm", library, llm)
+            names = {s for tid in ids for s in plan_run(tid).steps}
+            for name in tqdm(sorted(names), desc="conditions", unit="task", file=sys.stderr, disable=None):
+                source.condition(name)  # type: ignore[union-attr]
+        except (LLMError, TaskNameError, ConditionError) as exc:
+            fail(str(exc))
+    jobs = jobs_for(ids, methods, episodes, seed)
+    out = out or Path("runs") / f"eval-{kind}.jsonl"
+    workers = workers or cpu_count()
+    bar = tqdm(total=len(jobs), desc=kind, unit="episode", file=sys.stderr, disable=None)
+    done = {(r["task"], r["method"], r["seed"]) for r in _read(out)}
+    bar.update(sum(j.key in done for j in jobs))
+    records = evaluate(
+        jobs, out, skills or default_library_dir(), workers, llm, noise, progress=lambda _r: bar.update()
+    )
+    bar.close()
+    rows = summarize(records)
+    walls = [r["wall_seconds"] for r in records if "wall_seconds" in r]
+    if as_json:
+        typer.echo(json.dumps({"results": rows}, indent=2))
+        return
+    typer.echo(f"{'task':34s} {'method':6s} {'success':>9s}  failures")
+    for row in rows:
+        rate = f"{row['successes']}/{row['episodes']}"
+        typer.echo(f"{row['task']:34s} {row['method']:6s} {rate:>9s}  {row['failures'] or ''}")
+    if walls:
+        typer.echo(
+            f"\n{len(records)} episodes in {out}; {60.0 / (sum(walls) / len(walls)):.1f} episodes per minute "
+            "per core (mean episode wall time)"
+        )
+
+
+def _read(path: Path) -> list[dict]:
+    from taskcond.execution.runner import read_results
+
+    return read_results(path)
+
+
+def _eval_command(kind: str):
+    def command(
+        episodes: Annotated[
+            int, typer.Option("--episodes", min=1, help="Seeded episodes per task and method.")
+        ] = 10,
+        method: Annotated[
+            list[str] | None,
+            typer.Option(
+                "--method", help="Methods to compare (repeatable): llm, env, none. Default all three."
+            ),
+        ] = None,
+        workers: Annotated[
+            int | None, typer.Option("--workers", min=1, help="Worker processes (default: one per core).")
+        ] = None,
+        as_json: JsonOption = False,
+        out: Annotated[
+            Path | None,
+            typer.Option(
+                "--out",
+                help="JSON-lines results, appended per episode; an interrupted run resumes from it "
+                "(default runs/eval-primitives.jsonl or runs/eval-long-horizon.jsonl).",
+            ),
+        ] = None,
+        task: Annotated[
+            list[str] | None, typer.Option("--task", help="Only these suite task ids (repeatable).")
+        ] = None,
+        seed: Annotated[int, typer.Option("--seed", help="Seed of the first episode of each task.")] = 1000,
+        noise: NoiseOption = 0.005,
+        llm: LlmOption = None,
+        skills: SkillsOption = None,
+    ) -> None:
+        _eval_execution(kind, episodes, method, workers, as_json, out, task, seed, noise, llm, skills)
+
+    return command
+
+
+eval_app.command("primitives", help="Success rate of every primitive task per execution method (Table III).")(
+    _eval_command("primitives")
+)
+eval_app.command(
+    "long-horizon", help="Success rate of the long-horizon tasks per execution method (Table IV)."
+)(_eval_command("long-horizon"))
 
 
 if __name__ == "__main__":
