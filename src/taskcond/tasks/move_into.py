@@ -1,10 +1,14 @@
 """PT9 Move A into B (paper Table I): carry a held object over an open container and lower it in.
 
-Initial state: B open (box lid, drawer fully out), A held 5 cm above where it stood. Success: ``A inside
-B`` (A's centre of mass in B's interior).
+Initial state: B open (box lid, drawer fully out), A held 5 cm above where it stood (beside a drawer, with
+the fingers closing along world x, see :data:`BESIDE_DRAWER_YAW`). Success: ``A inside B`` (A's centre of
+mass in B's interior).
 """
 
 from __future__ import annotations
+
+import math
+from dataclasses import replace
 
 import numpy as np
 
@@ -24,6 +28,9 @@ PAIRS = (
 )
 FLOOR_GAP = 0.02
 """Height (m) of A's lowest point above B's floor where the oracle stops."""
+BESIDE_DRAWER_YAW = math.pi / 2
+"""Grasp yaw (rad, relative to A) of the held A when B is a drawer: fingers closing along world x, so that
+the hand's long side (20 cm across the fingers) is not under or against the pulled-out drawer beside A."""
 
 
 def into_goal(env: KitchenEnv, a: str, b: str) -> tuple[np.ndarray, float]:
@@ -50,7 +57,10 @@ class MoveInto(PrimitiveTask):
         b = self.objects[1]
         if b in env.scene.joints:
             env.scene.set_joint(b, 1.0)
-        env.hold(self.objects[0], 0.05, GRASPS[self.objects[0]])
+        grasp = GRASPS[self.objects[0]]
+        if b.endswith("drawer"):
+            grasp = replace(grasp, yaw_offset=BESIDE_DRAWER_YAW)
+        env.hold(self.objects[0], 0.05, grasp)
 
     def post_conditions(self) -> tuple[Predicate, ...]:
         return (SpatialRelation(self.objects[0], Relation.INSIDE, self.objects[1]),)
