@@ -1,0 +1,191 @@
+"""Skills, FromEnv conditions and plan parsing of the executor (paper §III-D, §III-E), no simulator."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+from numpy.testing import assert_allclose
+
+from taskcond.conditions import (
+    Collision,
+    ContainerState,
+    GripperState,
+    Relation,
+    SpatialRelation,
+    TaskCondition,
+)
+from taskcond.dmp import rollout
+from taskcond.execution.decompose import DecompositionError, parse_plan
+from taskcond.execution.skills import (
+    Demonstration,
+    SkillError,
+    SkillLibrary,
+    learn_skill,
+    split_points,
+    target_object,
+)
+from taskcond.execution.sources import EnvConditions, condition_from_environment
+
+
+def _grasp_demo(task: str = "grasp bottle", start=(0.3, 0.0, 0.5), target=(0.5, 0.1, 0.06)) -> Demonstration:
+    """Come over the target, stop 12 cm above it, go down, close, lift: 30 Hz samples."""
+    start, target = np.array(start), np.array(target)
+    up = np.array([0.0, 0.0, 1.0])
+    grasp = target + 0.07 * up
+    above = grasp + 0.12 * up
+    lift = grasp + 0.12 * up
+
+    def move(a, b, n):
+        s = np.linspace(0, 1, n + 1)[1:]
+        s = s * s * (3 - 2 * s)
+        return a + s[:, None] * (b - a)
+
+    parts = [start[None], move(start, above, 60), move(above, grasp, 30), np.repeat(grasp[None], 18, 0)]
+    parts.append(move(grasp, lift, 30))
+    positions = np.concatenate(parts)
+    n = len(positions)
+    gripper = np.zeros(n)
+    close = 1 + 60 + 30
+    gripper[close:] = 1.0
+    orientations = np.tile([1.0, 0.0, 0.0, 0.0], (n, 1))
+    return Demonstration(
+        task_name=task,
+        task_id=task.replace(" ", "-"),
+        times=np.arange(n) / 30,
+        positions=positions,
+        orientations=orientations,
+        gripper=gripper,
+        target=target_object(task),
+        target_center=target,
+        target_contact=close - 2,
+        condition=TaskCondition(
+            task,
+            ("bottle", "gripper"),
+            (GripperState(None),),
+            (GripperState("bottle"),),
+            (Collision("gripper", "bottle"),),
+        ),
+    )
+
+
+def test_demonstration_is_cut_at_the_approach_end_and_the_gripper_events() -> None:
+    demo = _grasp_demo()
+    cuts = split_points(demo)
+    assert cuts == [60, 91]  # the standstill 12 cm above the bottle, then the closing
+    skill = learn_skill(demo)
+    assert [s.anchor for s in skill.segments] == ["target", "relative", "relative"]
+    assert [s.gripper for s in skill.segments] == [0.0, 0.0, 1.0]
+    assert_allclose(skill.segments[0].offset, [0, 0, 0.19])
+    assert_allclose(skill.start_offset, np.array([0.3, 0.0, 0.5]) - [0.5, 0.1, 0.06])
+
+
+def test_segment_goals_follow_the_target_and_the_demonstrated_displacement() -> None:
+    skill = learn_skill(_grasp_demo())
+    approach, down, lift = skill.segments
+    new_target = np.array([0.45, -0.2, 0.06])
+    goal = approach.goal(np.array([0.2, 0.3, 0.4]), new_target)
+    assert_allclose(goal, new_target + np.array([0, 0, 0.19]))
+    assert_allclose(down.goal(goal, new_target), goal - [0, 0, 0.12], atol=1e-9)
+    # the learned DMP reproduces the approach from the demonstrated start (Eq. 1-3)
+    path = rollout(approach.dmp, approach.dmp.y0, approach.dmp.goal, n_steps=60).positions
+    assert_allclose(path[-1], approach.dmp.goal, atol=2e-3)
+    assert lift.orientation(0.5, np.array([0.0, 1.0, 0.0, 0.0])) @ [0.0, 1.0, 0.0, 0.0] == pytest.approx(1.0)
+
+
+def test_approach_orientation_turns_from_the_start_to_the_demonstrated_one() -> None:
+    approach = learn_skill(_grasp_demo()).segments[0]
+    start = np.array([0.0, 0.0, np.sin(0.3), np.cos(0.3)])  # 0.6 rad about z
+    demo = approach.orientations[0]
+    assert abs(approach.orientation(0.0, start) @ start) == pytest.approx(1.0)
+    assert abs(approach.orientation(1.0, start) @ demo) == pytest.approx(1.0)
+    middle = approach.orientation(0.5, start)
+    assert abs(middle @ start) < 0.999 and abs(middle @ demo) < 0.999
+
+
+def test_library_round_trip_and_lookup(tmp_path) -> None:
+    library = SkillLibrary()
+    near = learn_skill(_grasp_demo(start=(0.3, 0.0, 0.5)))
+    far = _grasp_demo(start=(0.5, 0.3, 0.15))
+    far = Demonstration(**{**vars(far), "task_id": "LHT9.1-grasp-bottle"})
+    library.add(near)
+    library.add(learn_skill(far))
+    library.save(tmp_path)
+    loaded = SkillLibrary.load(tmp_path)
+    assert set(loaded.skills) == {"grasp-bottle", "LHT9.1-grasp-bottle"}
+    a, b = near.segments[0].dmp, loaded.skills["grasp-bottle"].segments[0].dmp
+    assert_allclose(b.weights, a.weights)
+    assert loaded.skills["grasp-bottle"].condition == near.condition
+    # the skill whose demonstration started nearest (relative to the target) is chosen
+    assert loaded.lookup("grasp bottle", np.array([-0.2, -0.1, 0.44])).task_id == "grasp-bottle"
+    assert loaded.lookup("grasp bottle", np.array([0.0, 0.2, 0.09])).task_id == "LHT9.1-grasp-bottle"
+    assert loaded.lookup("grasp bowl").primitive == "grasp"  # same primitive, other object
+    with pytest.raises(SkillError, match="no skill for 'open box'"):
+        loaded.lookup("open box")
+
+
+def test_library_load_errors(tmp_path) -> None:
+    with pytest.raises(SkillError, match=r"no skill library at .*; create it with `taskcond learn`"):
+        SkillLibrary.load(tmp_path / "missing")
+    (tmp_path / "library.json").write_text(json.dumps({"format": 99, "skills": []}))
+    with pytest.raises(SkillError, match="format 99"):
+        SkillLibrary.load(tmp_path)
+
+
+def test_condition_from_environment_keeps_changes_and_states_of_relevant_objects() -> None:
+    before = {
+        GripperState("bottle"),
+        ContainerState("box", True),
+        ContainerState("microwave", False),
+        SpatialRelation("bottle", Relation.IN_FRONT_OF, "box"),
+        SpatialRelation("bottle", Relation.ABOVE, "table"),
+    }
+    after = {
+        GripperState("bottle"),
+        ContainerState("box", True),
+        ContainerState("microwave", False),
+        SpatialRelation("bottle", Relation.INSIDE, "box"),
+        SpatialRelation("bottle", Relation.ABOVE, "table"),
+    }
+    touched = {Collision("gripper", "bottle"), Collision("cube", "table")}
+    cond = condition_from_environment("move bottle into box", before, after, touched)
+    assert set(cond.pre_conditions) == {
+        GripperState("bottle"),
+        ContainerState("box", True),
+        SpatialRelation("bottle", Relation.IN_FRONT_OF, "box"),
+    }
+    assert set(cond.post_conditions) == {
+        GripperState("bottle"),
+        ContainerState("box", True),
+        SpatialRelation("bottle", Relation.INSIDE, "box"),
+    }
+    assert cond.collisions == (Collision("bottle", "gripper"),)
+
+
+def test_env_conditions_are_renamed_to_the_task_objects() -> None:
+    library = SkillLibrary()
+    library.add(learn_skill(_grasp_demo()))
+    cond = EnvConditions(library).condition("grasp mug")
+    assert cond.task_name == "grasp mug"
+    assert cond.post_conditions == (GripperState("mug"),)
+    assert cond.collisions == (Collision("gripper", "mug"),)
+
+
+def test_parse_plan_accepts_numbered_lines_and_rejects_unknown_objects() -> None:
+    objects = ["bottle", "box", "table"]
+    text = "1. grasp bottle\n2. Move the bottle into the box.\n- release bottle\nclose box\n"
+    assert parse_plan(text, objects) == [
+        "grasp bottle",
+        "move bottle into box",
+        "release bottle",
+        "close box",
+    ]
+    with pytest.raises(DecompositionError, match="names banana, not in the scene"):
+        parse_plan("grasp banana", objects)
+    with pytest.raises(DecompositionError, match="is not a primitive task"):
+        parse_plan("dance with the bottle", objects)
+    with pytest.raises(DecompositionError, match="names no primitive task"):
+        parse_plan("\n\n", objects)
+    with pytest.raises(DecompositionError, match="cannot be opened"):
+        parse_plan("open table", objects, lambda prim, objs: "cannot be opened" if prim == "open" else None)
