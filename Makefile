@@ -15,13 +15,8 @@ $(VENV)/.installed: pyproject.toml
 
 install: $(VENV)/.installed  ## create .venv and install taskcond with everything the tests need
 
-demo: install  ## generate task conditions with the embedded LLM, then run LHT1's oracle to a video
-	$(BIN)/taskcond conditions "move bottle into box"
-	$(BIN)/taskcond conditions "close box" --json
-	$(BIN)/taskcond conditions "move mug in front of bowl" --exclude move_in_front
-	mkdir -p runs
-	$(BIN)/taskcond oracle LHT1 --episodes 1 --seed 0 --video runs/demo-LHT1.mp4
-	@echo "video: runs/demo-LHT1.mp4"
+demo: install  ## learn the skills once, then perform LHT1 with conditions from the embedded LLM, to a video
+	$(BIN)/taskcond run LHT1 --method llm --seed 0 --video runs/demo-LHT1.mp4 --trace runs/demo-LHT1.json
 
 lint: install
 	$(BIN)/ruff check src tests benchmarks
