@@ -368,11 +368,12 @@ class Executor:
             params = _conditioned(seg, start, goal)
             rollout = DMPRollout(params, start, goal, tau=tau, history=cfg.backup_points)
             n = max(1, math.ceil(tau / world.dt - 1e-9))
+            orientations = seg.orientation(np.arange(n + 1) / n, start_q)
             k = 0
             while k < n:
                 position, _ = rollout.step(world.dt)
                 k += 1
-                self._step(position, seg.orientation(k / n, start_q), seg.gripper)
+                self._step(position, orientations[k], seg.gripper)
                 if cond is None or adjustments >= cfg.max_adjustments:
                     continue
                 touch = self._unallowed(world.touches(), checked, seg, baseline, allowed)
@@ -406,7 +407,7 @@ class Executor:
                     },
                 )
                 for _ in range(max(1, back // 3)):
-                    self._step(state.position, seg.orientation(k / n, start_q), seg.gripper)
+                    self._step(state.position, orientations[k], seg.gripper)
         for _ in range(cfg.settle_steps):
             self._step(*self._last)
 

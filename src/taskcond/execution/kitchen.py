@@ -12,11 +12,13 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+import pybullet as p
 
 from taskcond.conditions import Collision
 from taskcond.execution.skills import Demonstration, SkillLibrary, learn_skill, target_object
 from taskcond.execution.sources import condition_from_environment
 from taskcond.execution.world import Observation, Touch
+from taskcond.sim.description import SceneDescription
 from taskcond.sim.perception import EnvironmentInfo, Perception, PerceptionConfig
 from taskcond.sim.recording import VideoRecorder
 from taskcond.tasks.base import PrimitiveTask, Task, TaskInfo
@@ -28,8 +30,35 @@ REACH = 0.95
 flange plus the hand; farther goals are refused."""
 SHOULDER = np.array([0.0, 0.0, 0.333])
 """Position (m, world frame) of the Panda's shoulder (joint 2) with the base at the origin."""
+CONTACT_DISTANCE = 0.002
+"""Contact points farther apart than this (m) are not contacts (PyBullet keeps points up to its
+contact-breaking threshold); as :class:`~taskcond.sim.perception.RelationThresholds`."""
 VIDEO_EVERY = 2
 """Record every n-th control step."""
+
+
+def _link_owners(description: SceneDescription) -> dict[tuple[int, int], str]:
+    """Name of each (body, link) of the scene: the nearest named ancestor-or-self link (a drawer's handle
+    is the drawer, a lid the box); every link of an arm is its gripper. The same ownership as
+    :class:`~taskcond.sim.perception.Perception` uses for contacts."""
+    client = description.client
+    named = {(b.body_id, b.link_index): b.name for b in description.bodies}
+    owners: dict[tuple[int, int], str] = {}
+    for body in {b.body_id for b in description.bodies}:
+        parents = {
+            j: p.getJointInfo(body, j, physicsClientId=client)[16]
+            for j in range(p.getNumJoints(body, physicsClientId=client))
+        }
+        for link in (-1, *parents):
+            ancestor = link
+            while (body, ancestor) not in named and ancestor != -1:
+                ancestor = parents[ancestor]
+            if (body, ancestor) in named:
+                owners[(body, link)] = named[(body, ancestor)]
+    for gripper in description.grippers:
+        for link in range(-1, p.getNumJoints(gripper.body_id, physicsClientId=client)):
+            owners[(gripper.body_id, link)] = gripper.name
+    return owners
 
 
 def _observation(info: EnvironmentInfo) -> Observation:
@@ -64,7 +93,7 @@ class KitchenWorld:
         self.perception = Perception(
             description, PerceptionConfig(noise_sigma=noise_sigma, check_visibility=False)
         )
-        self._contacts = Perception(description, PerceptionConfig(check_visibility=False))
+        self._owner = _link_owners(description)
         self._rng = np.random.default_rng(seed)
         self._objects = tuple(b.name for b in description.bodies if b.kind != "robot")
         self._free = tuple(env.scene.free_objects)
@@ -85,7 +114,24 @@ class KitchenWorld:
         return _observation(self.perception.observe(self._rng))
 
     def touches(self) -> tuple[Touch, ...]:
-        return _observation(self._contacts.observe()).touches
+        """Contacts of the arm (all its links are the gripper) and of whatever it touches with the
+        bodies around, from PyBullet's contact points of the last step: only what Alg. 2 checks."""
+        robot = self.env.robot.body
+        client = self.env.scene.client
+        points = list(p.getContactPoints(bodyA=robot, physicsClientId=client))
+        touched = {pt[2] for pt in points} - {robot}
+        for body in touched:
+            points += p.getContactPoints(bodyA=body, physicsClientId=client)
+        merged: dict[frozenset[str], list[np.ndarray]] = {}
+        names: dict[frozenset[str], tuple[str, str]] = {}
+        for pt in points:
+            a, b = self._owner.get((pt[1], pt[3])), self._owner.get((pt[2], pt[4]))
+            if a is None or b is None or a == b or pt[8] > CONTACT_DISTANCE:
+                continue
+            key = frozenset((a, b))
+            names.setdefault(key, (min(a, b), max(a, b)))
+            merged.setdefault(key, []).append((np.array(pt[5]) + np.array(pt[6])) / 2.0)
+        return tuple(Touch(*names[k], np.mean(v, axis=0)) for k, v in merged.items())
 
     def locate(self, name: str, observation: Observation) -> np.ndarray | None:
         if name == "position":

@@ -23,11 +23,12 @@ from __future__ import annotations
 import itertools
 import json
 from dataclasses import dataclass, field
+from functools import cached_property
 from pathlib import Path
 from typing import Literal
 
 import numpy as np
-from scipy.spatial.transform import Rotation
+from scipy.spatial.transform import Rotation, Slerp
 
 from taskcond.conditions import TaskCondition
 from taskcond.dmp import DMPParameters, learn_dmp, load_parameters, save_parameters
@@ -106,29 +107,29 @@ class Segment:
             return np.asarray(target_center, float) + self.offset
         return self.dmp.displaced_goal(np.asarray(start, float))
 
-    def orientation(self, fraction: float, start: np.ndarray) -> np.ndarray:
-        """Orientation (4,) xyzw at ``fraction`` ∈ [0, 1] of the piece when it started at orientation
-        ``start`` (4,).
+    @cached_property
+    def _profile(self) -> Slerp:
+        if len(self.orientations) == 1:
+            return Slerp([0.0, 1.0], Rotation.from_quat(np.repeat(self.orientations, 2, axis=0)))
+        return Slerp(np.linspace(0.0, 1.0, len(self.orientations)), Rotation.from_quat(self.orientations))
+
+    def orientation(self, fraction: float | np.ndarray, start: np.ndarray) -> np.ndarray:
+        """Orientation xyzw at ``fraction`` ∈ [0, 1] of the piece ((4,), or (m, 4) for m fractions) when it
+        started at orientation ``start`` (4,).
 
         The demonstrated profile R_d(s) is carried over as ``Δ(s) R_d(s)``. For a relative piece Δ is the
         constant world-frame rotation between the new and the demonstrated start; for the approach it is
         slerped from that rotation to identity, so the hand arrives in the demonstrated orientation
         relative to the world (the target's frame)."""
-        s = float(np.clip(fraction, 0.0, 1.0))
-        k = s * (len(self.orientations) - 1)
-        i = min(int(k), len(self.orientations) - 2) if len(self.orientations) > 1 else 0
-        demo = _slerp(self.orientations[i], self.orientations[min(i + 1, len(self.orientations) - 1)], k - i)
-        offset = Rotation.from_quat(start) * Rotation.from_quat(self.orientations[0]).inv()
+        s = np.clip(np.asarray(fraction, dtype=float), 0.0, 1.0)
+        demo = self._profile(np.atleast_1d(s))
+        offset = (Rotation.from_quat(start) * Rotation.from_quat(self.orientations[0]).inv()).as_rotvec()
+        weight = np.ones_like(np.atleast_1d(s))
         if self.anchor == "target":
-            weight = s * s * (3 - 2 * s)
-            offset = Rotation.from_rotvec(offset.as_rotvec() * (1.0 - weight))
-        return (offset * Rotation.from_quat(demo)).as_quat()
-
-
-def _slerp(q0: np.ndarray, q1: np.ndarray, t: float) -> np.ndarray:
-    r0 = Rotation.from_quat(q0)
-    delta = r0.inv() * Rotation.from_quat(q1)
-    return (r0 * Rotation.from_rotvec(delta.as_rotvec() * t)).as_quat()
+            u = np.atleast_1d(s)
+            weight = 1.0 - u * u * (3 - 2 * u)
+        quats = (Rotation.from_rotvec(weight[:, None] * offset[None, :]) * demo).as_quat()
+        return quats if s.ndim else quats[0]
 
 
 @dataclass(frozen=True, eq=False)
