@@ -19,8 +19,10 @@ With conditions, every primitive is performed as
 2. *control with conditions* (Alg. 2, :meth:`Executor.control`): DMP rollouts towards the goal from the
    environment information; after every control step the contacts are compared with the condition's
    allowed collisions, and an unallowed one backs the rollout up :attr:`ExecutionConfig.backup_points`
-   points and moves the goal by ``goal − collision position`` (Alg. 2 lines 9–12; we bound the shift by
-   :attr:`ExecutionConfig.max_goal_shift`, the paper leaves it unbounded);
+   points and moves the goal by ``goal − collision position`` (Alg. 2 lines 9–12). We keep the
+   horizontal part only and bound it by :attr:`ExecutionConfig.max_goal_shift` (the paper moves the goal
+   in 3-D without bound): a contact at a container's rim below the goal would otherwise lift the goal out
+   of the container the object is being lowered into;
    Spatial relations of the gripper itself (``gripper in front of box``) are left to the motion: no
    primitive achieves them on their own;
 3. the post-conditions are checked (relations of the gripper itself only reported: like such
@@ -59,6 +61,11 @@ from taskcond.dmp import DMPParameters, DMPRollout
 from taskcond.execution.skills import Segment, SkillError, SkillLibrary, target_object
 from taskcond.execution.world import Observation, Touch, World
 from taskcond.primitives import TaskNameError, parse_task, task_for_condition
+
+IDEMPOTENT = frozenset({"grasp", "release", "open", "close"})
+"""Primitives whose post-conditions say all they achieve (a grasp, an open box): when those already hold
+the primitive is skipped. A move's post-conditions (``mug above table``) may hold before it runs while its
+goal, a place, does not."""
 
 Method = Literal["llm", "env", "none"]
 METHODS: tuple[Method, ...] = ("llm", "env", "none")
@@ -246,7 +253,13 @@ class Executor:
         missing: list[Predicate] = []
         for attempt in range(self.config.max_attempts):
             obs = self.world.observe()
-            if attempt == 0 and cond.post_conditions and not _missing(cond.post_conditions, obs):
+            idempotent = parse_task(task).primitive.id in IDEMPOTENT
+            if (
+                attempt == 0
+                and idempotent
+                and cond.post_conditions
+                and not _missing(cond.post_conditions, obs)
+            ):
                 self._emit("skip", task, depth, f"{task}: post-conditions already hold, skipped")
                 return
             if attempt > 0 and (undo := _undoing(cond, obs)):
@@ -391,6 +404,7 @@ class Executor:
                 state = rollout.back_up(back)
                 k -= back
                 shift = goal - touch.position
+                shift[2] = 0.0
                 norm = float(np.linalg.norm(shift))
                 if norm > cfg.max_goal_shift:
                     shift *= cfg.max_goal_shift / norm
