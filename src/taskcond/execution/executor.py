@@ -25,9 +25,11 @@ With conditions, every primitive is performed as
    of the container the object is being lowered into;
    Spatial relations of the gripper itself (``gripper in front of box``) are left to the motion: no
    primitive achieves them on their own;
-3. the post-conditions are checked (relations of the gripper itself only reported: like such
-   pre-conditions, no primitive achieves them); if some do not hold the primitive is tried again
-   (satisfaction and control) while attempts and time remain, as Alg. 2 runs "until all post-conditions
+3. the post-conditions are checked; if some of its *effects* do not hold (post-conditions that are not
+   also pre-conditions, and not relations of the gripper itself, which no primitive achieves alone), the
+   primitive is tried again; a condition kept from the pre-conditions that broke once the effects were
+   achieved (the bottle slipped when already inside the box) is only reported. Tries go on (satisfaction
+   and control) while attempts and time remain, as Alg. 2 runs "until all post-conditions
    are met or the time exceeds" its budget. A primitive that ends without its post-conditions is
    reported, not fatal: the next one runs, and the task's own success check decides.
 
@@ -274,9 +276,15 @@ class Executor:
             self.satisfy(cond, (*stack, task), depth, deadline)
             self.control(task, cond, depth, deadline)
             missing = _missing(cond.post_conditions, self.world.observe())
-            if all(_about_gripper_place(m) for m in missing):
+            effects = [
+                q
+                for q in cond.post_conditions
+                if q not in cond.pre_conditions and not _about_gripper_place(q)
+            ]
+            if not any(m in effects for m in missing) and (effects or not missing):
                 note = (
-                    f" (but not {_join(missing)}: the gripper's own place, not tried again)"
+                    f" (but not {_join(missing)}: kept from the pre-conditions or the gripper's own place, "
+                    "not tried again)"
                     if missing
                     else ""
                 )
