@@ -100,6 +100,7 @@ class KitchenWorld:
         self._joints = tuple(env.scene.joints)
         self._interiors = tuple(env.scene.interiors)
         self.env_seconds = 0.0
+        self._observed: tuple[int, Observation] | None = None
         """Wall-clock seconds spent inside the environment's step (IK and physics)."""
 
     @property
@@ -111,7 +112,11 @@ class KitchenWorld:
         return self._objects
 
     def observe(self) -> Observation:
-        return _observation(self.perception.observe(self._rng))
+        """Environment information now; repeated calls without a control step in between return the same
+        observation (same noise draw), as a real robot's perception would until something moves."""
+        if self._observed is None or self._observed[0] != self.env.steps:
+            self._observed = (self.env.steps, _observation(self.perception.observe(self._rng)))
+        return self._observed[1]
 
     def touches(self) -> tuple[Touch, ...]:
         """Contacts of the arm (all its links are the gripper) and of whatever it touches with the
