@@ -28,11 +28,19 @@ def test_registry_covers_primitives_and_long_horizon():
     ids = [i.id for i in infos]
     assert len(ids) == len(set(ids)) == len(task_ids())
     prims = [i for i in infos if i.kind == "primitive"]
-    assert {i.primitive for i in prims} == set(PRIMITIVES) - {"fold"}
+    assert {i.primitive for i in prims} == set(PRIMITIVES)
     assert len(prims) >= 30
-    assert {"grasp-bottle", "open-top_drawer", "move_into-bottle-box"} <= set(ids)
+    assert {"grasp-bottle", "open-top_drawer", "move_into-bottle-box", "grasp-cloth", "fold-cloth"} <= set(
+        ids
+    )
     lht = {i.id: i for i in infos if i.kind == "long-horizon"}
-    assert set(lht) == {"LHT1", "LHT2", "LHT3", "LHT1*", "LHT2*"}
+    assert set(lht) == {"LHT1", "LHT2", "LHT3", "LHT4", "LHT1*", "LHT2*"}
+    assert lht["LHT4"].primitive == (
+        "grasp spatula",
+        "move spatula on top of cloth",
+        "release spatula",
+        "fold cloth",
+    )
     assert lht["LHT1"].primitive == ("grasp bottle", "move bottle into box", "release bottle", "close box")
     assert lht["LHT2*"].primitive[0] == "close bottom drawer"
 

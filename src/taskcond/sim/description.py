@@ -55,7 +55,10 @@ class ContainerJoint:
 
 @dataclass(frozen=True)
 class GripperSpec:
-    """A parallel gripper: its name in conditions, the arm body, finger links and end-effector link."""
+    """A parallel gripper: its name in conditions, the arm body, finger links and end-effector link.
+
+    Naming with two arms: the Franka's gripper keeps the single-arm name ``"gripper"``, the Kinova's is
+    ``"kinova gripper"``; any name ending in ``gripper`` denotes a gripper in conditions."""
 
     body_id: int
     finger_links: tuple[int, int]
@@ -71,6 +74,9 @@ class SceneDescription:
     bodies: list[NamedBody] = field(default_factory=list)
     containers: list[ContainerJoint] = field(default_factory=list)
     grippers: list[GripperSpec] = field(default_factory=list)
+    soft_bodies: list[int] = field(default_factory=list)
+    """Body ids of soft bodies (the cloth): their box comes from their simulation mesh, and a gripper
+    grasps one when its closed fingers hold mesh nodes between them."""
 
     def body(self, name: str) -> NamedBody:
         """Look up a named body; raises ``KeyError`` listing the valid names."""

@@ -559,6 +559,8 @@ class KinovaArm:
         p.setJointMotorControl2(
             self.body_id, self.finger_joints[1], p.VELOCITY_CONTROL, force=0.0, physicsClientId=client
         )
+        self.gripper_closed = False
+        """Whether the last gripper command was (more than half way) closed."""
         self.reset_home()
 
     # -- state -------------------------------------------------------------------------------------------
@@ -755,6 +757,7 @@ class KinovaArm:
         """Command the distance (m) between the finger pads, in ``[0, max_opening]``, pushing with at most
         ``force`` N (default: the gripper's rated force)."""
         half = float(np.clip(opening, 0.0, self.gripper.max_opening)) / 2
+        self.gripper_closed = half < self.gripper.max_opening / 4
         p.setJointMotorControl2(
             self.body_id,
             self.finger_joints[0],

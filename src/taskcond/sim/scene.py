@@ -13,7 +13,7 @@ which acts as joint friction; drawers, lid and door only move when the gripper p
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 import pybullet as p
@@ -31,11 +31,17 @@ from taskcond.sim.assets import (
     VesselSpec,
     build_asset,
 )
-from taskcond.sim.description import ContainerJoint, NamedBody, SceneDescription
-from taskcond.sim.franka import Franka
+from taskcond.sim.cloth import ClothGrips, ClothSpec, GripperHandle, cloth_nodes, load_cloth
+from taskcond.sim.description import ContainerJoint, GripperSpec, NamedBody, SceneDescription
+from taskcond.sim.franka import EE_LINK, FINGER_JOINTS, Franka
+from taskcond.sim.kinova import KinovaArm
 
 PHYSICS_HZ = 240
 """Physics steps per second."""
+GRIPPER = "gripper"
+"""Name of the Franka's gripper in conditions (the single-arm name)."""
+KINOVA_GRIPPER = "kinova gripper"
+"""Name of the Kinova's gripper in conditions."""
 
 
 @dataclass(frozen=True)
@@ -89,6 +95,31 @@ class SceneConfig:
     )
     position_noise: float = 0.02
     yaw_noise: float = 0.25
+    kinova: bool = False
+    """Load the Kinova Gen3 beside the Franka (dual-arm tasks)."""
+    kinova_base: tuple[float, float, float] = (0.0, 0.62, 0.0)
+    """World position (m) of the Kinova's base frame (centre of the base's bottom), facing +x like the
+    Franka: on the Franka's left, in front of nothing the single-arm tasks use."""
+    cloth: ClothSpec | None = None
+    """The cloth (a soft body; its presence makes the client a deformable world), or ``None``."""
+    cloth_center: tuple[float, float] = (0.36, 0.26)
+    """Nominal world xy (m) of the cloth's centre, between the two arms; perturbed by ``position_noise``."""
+
+
+def dual_arm_config(base: SceneConfig | None = None, cloth: ClothSpec | None = None) -> SceneConfig:
+    """The scene of the dual-arm and cloth tasks (PT6 Fold, grasp cloth, LHT4): ``base`` (default kitchen)
+    with the Kinova and the cloth, without the free objects whose nominal placement lies on the cloth or
+    within 6 cm of it (bowl, toothpaste and cube in the default kitchen)."""
+    base = base or SceneConfig()
+    spec = cloth or base.cloth or ClothSpec()
+    half = spec.size / 2 + 0.06
+    cx, cy = base.cloth_center
+    free = {
+        name: (asset, place)
+        for name, (asset, place) in base.free_objects.items()
+        if abs(place.xy[0] - cx) > half or abs(place.xy[1] - cy) > half
+    }
+    return replace(base, kinova=True, cloth=spec, free_objects=free)
 
 
 DRAWERS = ("bottom drawer", "top drawer")
@@ -117,6 +148,16 @@ class WorldInterior:
 class KitchenScene:
     """The kitchen in one PyBullet client: builds every body and keeps their ids and interiors.
 
+    With ``config.kinova`` the Kinova Gen3 (:attr:`kinova`) stands at ``config.kinova_base`` facing +x;
+    with ``config.cloth`` the client is a deformable world (reset with ``RESET_USE_DEFORMABLE_WORLD`` before
+    anything is loaded) and the cloth lies flat at ``config.cloth_center`` (:attr:`cloth`, a soft body,
+    named ``"cloth"``; :attr:`grips` holds the soft-body anchors of the grippers on it). Both are off by
+    default, so that the single-arm tasks keep PyBullet's rigid-body world and their speed.
+
+    Gripper names (conditions, perception): ``"gripper"`` is the Franka's, ``"kinova gripper"`` the Kinova's
+    (:data:`KINOVA_GRIPPER`); any name ending in ``gripper`` is a gripper (``conditions.is_gripper``),
+    so the single-arm vocabulary is unchanged.
+
     Args:
         config: layout and object parameters.
         gui: open PyBullet's GUI instead of the headless ``DIRECT`` mode.
@@ -125,6 +166,8 @@ class KitchenScene:
     def __init__(self, config: SceneConfig | None = None, gui: bool = False) -> None:
         self.config = config or SceneConfig()
         self.client = p.connect(p.GUI if gui else p.DIRECT)
+        if self.config.cloth is not None:
+            p.resetSimulation(p.RESET_USE_DEFORMABLE_WORLD, physicsClientId=self.client)
         p.setGravity(0, 0, -9.81, physicsClientId=self.client)
         p.setTimeStep(1.0 / PHYSICS_HZ, physicsClientId=self.client)
         p.setPhysicsEngineParameter(numSolverIterations=50, physicsClientId=self.client)
@@ -180,6 +223,73 @@ class KitchenScene:
             )
         self.robot = Franka(self.client)
         self.free_objects = tuple(cfg.free_objects)
+        self.kinova: KinovaArm | None = None
+        if cfg.kinova:
+            self.kinova = KinovaArm(self.client, cfg.kinova_base)
+        self.cloth: int | None = None
+        self.grips: ClothGrips | None = None
+        if cfg.cloth is not None:
+            self.cloth = load_cloth(self.client, cfg.cloth, (*cfg.cloth_center, cfg.cloth.collision_margin))
+            self.bodies["cloth"] = self.cloth
+            self.links["cloth"] = -1
+            self.specs["cloth"] = cfg.cloth  # type: ignore[assignment]
+            self.grips = ClothGrips(self.client, self.cloth, cfg.cloth, self._grip_handles())
+
+    def _grip_handles(self) -> list[GripperHandle]:
+        robot = self.robot
+        handles = [
+            GripperHandle(
+                GRIPPER, robot.body, FINGER_JOINTS, EE_LINK, lambda: robot.gripper_closed, robot.finger_width
+            )
+        ]
+        if self.kinova is not None:
+            arm = self.kinova
+            handles.append(
+                GripperHandle(
+                    KINOVA_GRIPPER,
+                    arm.body_id,
+                    arm.finger_links,
+                    arm.ee_link,
+                    lambda: arm.gripper_closed,
+                    arm.gripper_opening,
+                )
+            )
+        return handles
+
+    @property
+    def grippers(self) -> list[GripperSpec]:
+        """Every gripper of the scene: the Franka's ``"gripper"``, then the Kinova's ``"kinova gripper"``."""
+        specs = [self.robot.spec]
+        if self.kinova is not None:
+            specs.append(self.kinova.gripper_spec(KINOVA_GRIPPER))
+        return specs
+
+    def cloth_nodes(self) -> np.ndarray:
+        """(n*n, 3) world positions (m) of the cloth's simulation-mesh nodes (see :mod:`taskcond.sim.cloth`).
+
+        Raises:
+            ValueError: the scene has no cloth.
+        """
+        if self.cloth is None:
+            raise ValueError("the scene has no cloth (SceneConfig.cloth is None; use dual_arm_config)")
+        return cloth_nodes(self.client, self.cloth)
+
+    def place_cloth(self, xy: tuple[float, float] | np.ndarray, yaw: float = 0.0) -> None:
+        """Lay the cloth flat and at rest with its centre at ``xy`` (m) turned ``yaw`` rad (reset only).
+
+        PyBullet can set a soft body's node positions but not its node velocities, so the cloth is removed
+        and loaded again (8 ms at 15 × 15); PyBullet reuses the freed body id, which is checked. Every anchor
+        is removed first.
+        """
+        if self.cloth is None or self.grips is None or self.config.cloth is None:
+            raise ValueError("the scene has no cloth (SceneConfig.cloth is None; use dual_arm_config)")
+        self.grips.release_all()
+        p.removeBody(self.cloth, physicsClientId=self.client)
+        spec = self.config.cloth
+        body = load_cloth(self.client, spec, (float(xy[0]), float(xy[1]), spec.collision_margin), yaw)
+        if body != self.cloth:
+            raise RuntimeError(f"PyBullet gave the reloaded cloth body id {body}, not {self.cloth}")
+        self.grips.ignore_fingers()
 
     def _load(self, name: str, spec: AssetSpec, position: tuple[float, float, float], fixed: bool) -> None:
         asset = build_asset(name.replace(" ", "_"), spec)
@@ -207,7 +317,10 @@ class KitchenScene:
             for n in self.bodies
         ]
         bodies.append(NamedBody("robot", self.robot.body, -1, "robot"))
-        return SceneDescription(self.client, bodies, list(self.joints.values()), [self.robot.spec])
+        if self.kinova is not None:
+            bodies.append(NamedBody("kinova", self.kinova.body_id, -1, "robot"))
+        soft = [self.cloth] if self.cloth is not None else []
+        return SceneDescription(self.client, bodies, list(self.joints.values()), self.grippers, soft)
 
     # ----------------------------------------------------------------------------------------- state
     def pose(self, name: str) -> tuple[np.ndarray, np.ndarray]:

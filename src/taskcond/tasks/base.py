@@ -18,6 +18,7 @@ from taskcond.primitives import PRIMITIVES
 from taskcond.tasks.trajectory import Trajectory, Waypoint
 
 if TYPE_CHECKING:
+    from taskcond.sim.scene import SceneConfig
     from taskcond.tasks.env import KitchenEnv
 
 
@@ -51,6 +52,13 @@ class Task:
     info: TaskInfo
     max_steps: int = 400
     """Episode length in control steps before truncation."""
+
+    def scene_config(self, config: SceneConfig | None) -> SceneConfig | None:
+        """The scene this task needs, given the caller's ``config`` (``None`` = the default kitchen).
+
+        Single-arm tasks return it unchanged; dual-arm and cloth tasks add the Kinova and the cloth
+        (:func:`taskcond.sim.scene.dual_arm_config`)."""
+        return config
 
     def setup(self, env: KitchenEnv, rng: np.random.Generator) -> None:
         """Bring the freshly randomized scene into the task's initial state (reset time only)."""

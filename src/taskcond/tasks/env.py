@@ -10,8 +10,20 @@ Observation (dict of float arrays): ``ee_position`` (3,), ``ee_orientation`` (4,
 order of :attr:`KitchenEnv.object_names`, ``container_open`` (4,) open fractions of
 :data:`taskcond.sim.scene.ARTICULATED`, ``target`` (3,) goal position of ``move`` tasks (zeros otherwise).
 
-``info``: ``success`` (bool), ``failure`` (reason string or ``None``), ``steps``. A simulation blow-up (NaN,
-an object leaving the workspace, deep interpenetration) terminates the episode with its reason.
+``info``: ``success`` (bool), ``failure`` (reason string or ``None``), ``failure_detail`` (one line or
+``None``), ``steps``. A simulation blow-up (NaN, an object leaving the workspace, deep interpenetration)
+terminates the episode with its reason.
+
+Dual-arm tasks (the task's :meth:`~taskcond.tasks.base.Task.scene_config` adds the Kinova and the cloth):
+the action may be (16,): the Franka's (8,) action followed by the Kinova's (8,) in the same layout (tool
+centre point target, quaternion, gripper command); an (8,) or (7,) action moves the Franka only and the
+Kinova holds its last command. The Kinova's target is converted by its own IK
+(:meth:`taskcond.sim.kinova.KinovaArm.solve_ik`); a target beyond its reach or without a joint solution
+ends the episode with failure ``kinova_unreachable`` and the IK's one-line message in ``failure_detail``.
+The observation gains ``kinova_ee_position`` (3,), ``kinova_ee_orientation`` (4,), ``kinova_gripper_width``
+(1,), ``kinova_joint_positions`` (7,) and, with the cloth, ``cloth_nodes`` (n*n, 3) world node positions.
+After every control step the soft-body anchors of the grippers on the cloth are updated
+(:class:`taskcond.sim.cloth.ClothGrips`).
 """
 
 from __future__ import annotations
@@ -24,6 +36,7 @@ import pybullet as p
 from gymnasium import spaces
 
 from taskcond.sim.franka import HOME, top_down
+from taskcond.sim.kinova import GEN3_HOME
 from taskcond.sim.scene import ARTICULATED, PHYSICS_HZ, KitchenScene, SceneConfig
 from taskcond.tasks.base import Task
 from taskcond.tasks.groundtruth import GroundTruth
@@ -33,6 +46,13 @@ WORKSPACE = (np.array([-0.4, -1.0, -0.2]), np.array([1.1, 1.0, 1.5]))
 PENETRATION = 0.03
 """Contact depth (m) counted as a simulation blow-up."""
 RENDER_SIZE = (320, 240)
+RENDER_EYE = (0.95, 0.85, 0.95)
+"""Position (m, world) of the :meth:`KitchenEnv.render` camera: in front of the table on the robot's left,
+high, so that neither arm hides the objects."""
+RENDER_TARGET = (0.32, 0.02, 0.08)
+"""Point (m, world) the render camera looks at: the middle of the work area."""
+KINOVA_IK_TOLERANCE = 0.005
+"""Metres the Kinova's IK answer may miss an action's target before the episode fails."""
 
 
 class KitchenEnv(gym.Env):
@@ -62,16 +82,21 @@ class KitchenEnv(gym.Env):
             raise ValueError(f"unknown render_mode {render_mode!r}; valid: 'rgb_array', None")
         self.task = task
         self.render_mode = render_mode
-        self.scene = KitchenScene(config, gui=gui)
+        self.scene = KitchenScene(task.scene_config(config), gui=gui)
         self.truth = GroundTruth(self.scene)
         self.robot = self.scene.robot
+        self.kinova = self.scene.kinova
+        """The Kinova Gen3 (:class:`taskcond.sim.kinova.KinovaArm`) of dual-arm tasks, else ``None``."""
         self.substeps = PHYSICS_HZ // control_hz
         self.dt = self.substeps / PHYSICS_HZ
         self.object_names = self.scene.free_objects
         self.target = np.zeros(3)
         self.steps = 0
         self.failure: str | None = None
+        self.failure_detail: str | None = None
         self._q = np.array(HOME)
+        self._kq = np.array(GEN3_HOME)
+        self._k_target: np.ndarray | None = None
         self._seed = seed
         n = len(self.object_names)
         box = spaces.Box
@@ -86,11 +111,21 @@ class KitchenEnv(gym.Env):
                 "target": box(-2, 2, (3,), np.float64),
             }
         )
-        self.action_space = box(
-            np.array([-1, -1, -0.2, -1, -1, -1, -1, 0.0]),
-            np.array([1.2, 1, 1.2, 1, 1, 1, 1, 1.0]),
-            dtype=np.float64,
-        )
+        low, high = np.array([-1, -1, -0.2, -1, -1, -1, -1, 0.0]), np.array([1.2, 1, 1.2, 1, 1, 1, 1, 1.0])
+        if self.kinova is not None:
+            low, high = np.tile(low, 2), np.tile(high, 2)
+            self.observation_space.spaces.update(
+                {
+                    "kinova_ee_position": box(-2, 2, (3,), np.float64),
+                    "kinova_ee_orientation": box(-1, 1, (4,), np.float64),
+                    "kinova_gripper_width": box(0, 0.1, (1,), np.float64),
+                    "kinova_joint_positions": box(-7, 7, (7,), np.float64),
+                }
+            )
+        if self.scene.cloth is not None:
+            nodes = self.scene.config.cloth.resolution**2  # type: ignore[union-attr]
+            self.observation_space.spaces["cloth_nodes"] = box(-np.inf, np.inf, (nodes, 3), np.float64)
+        self.action_space = box(low, high, dtype=np.float64)
 
     # ------------------------------------------------------------------------------------------ gym API
     def reset(
@@ -110,9 +145,16 @@ class KitchenEnv(gym.Env):
             self.scene.set_joint(name, 0.0)
         self.robot.reset(HOME)
         self._q = np.array(HOME)
+        if self.kinova is not None:
+            self.kinova.reset_home()
+            self._kq, self._k_target = np.array(GEN3_HOME), None
+        if self.scene.cloth is not None:
+            xy = np.array(cfg.cloth_center) + rng.uniform(-cfg.position_noise, cfg.position_noise, 2)
+            self.scene.place_cloth(xy)
         self.target = np.zeros(3)
         self.steps = 0
         self.failure = None
+        self.failure_detail = None
         self.task.setup(self, rng)
         self.settle(0.1)
         return self._obs(), self._info()
@@ -122,14 +164,22 @@ class KitchenEnv(gym.Env):
         if action.shape == (7,):
             orn = np.array(p.getQuaternionFromEuler(action[3:6]))
             action = np.concatenate([action[:3], orn, action[6:]])
+        kinova_action = None
+        if action.shape == (16,) and self.kinova is not None:
+            action, kinova_action = action[:8], action[8:]
         if action.shape != (8,):
-            raise ValueError(f"action must have shape (8,) or (7,), got {action.shape}")
+            valid = "(16,), (8,) or (7,)" if self.kinova is not None else "(8,) or (7,)"
+            raise ValueError(f"action must have shape {valid}, got {action.shape}")
         orn = action[3:7] / (np.linalg.norm(action[3:7]) or 1.0)
+        if self.failure is None and kinova_action is not None:
+            self._command_kinova(kinova_action)
         if self.failure is None:
             self._q = self.robot.ik(action[:3], orn, seed=self._q)
             self.robot.command(self._q, closed=bool(action[7] >= 0.5))
             for _ in range(self.substeps):
                 p.stepSimulation(physicsClientId=self.scene.client)
+            if self.scene.grips is not None:
+                self.scene.grips.update()
             self.failure = self._check_blowup()
         self.steps += 1
         success = self.failure is None and self.task.success(self)
@@ -137,10 +187,37 @@ class KitchenEnv(gym.Env):
         truncated = self.steps >= self.task.max_steps
         return self._obs(), float(success), terminated, truncated, self._info(success)
 
+    def _command_kinova(self, action: np.ndarray) -> None:
+        """Kinova motor targets for an (8,) action; a target it cannot reach sets :attr:`failure`."""
+        assert self.kinova is not None
+        target = action[:7].copy()
+        target[3:7] /= np.linalg.norm(target[3:7]) or 1.0
+        if self._k_target is None or not np.allclose(target, self._k_target, atol=1e-7):
+            try:
+                result = self.kinova.solve_ik(target[:3], target[3:7], seed=self._kq)
+            except ValueError as err:
+                self.failure, self.failure_detail = "kinova_unreachable", str(err)
+                return
+            if result.position_error > KINOVA_IK_TOLERANCE or not result.within_limits:
+                self.failure = "kinova_unreachable"
+                self.failure_detail = (
+                    f"no Kinova Gen3 joint solution for {np.round(target[:3], 3).tolist()}: IK is "
+                    f"{result.position_error * 1000:.1f} mm off"
+                    f"{'' if result.within_limits else ', outside the joint limits'}"
+                )
+                return
+            self._kq, self._k_target = result.q, target
+            self.kinova.set_joint_targets(result.q)
+        if action[7] >= 0.5:
+            self.kinova.close_gripper()
+        else:
+            self.kinova.open_gripper()
+
     def render(self) -> np.ndarray:
-        """RGB image (240, 320, 3) uint8 from a fixed camera behind and above the robot (CPU renderer)."""
+        """RGB image (240, 320, 3) uint8 from a fixed camera in front of the table on the robot's left,
+        looking at the work area (:data:`RENDER_EYE`, :data:`RENDER_TARGET`; CPU renderer)."""
         w, h = RENDER_SIZE
-        view = p.computeViewMatrix((-0.45, 0.0, 0.85), (0.5, 0.0, 0.05), (0, 0, 1))
+        view = p.computeViewMatrix(RENDER_EYE, RENDER_TARGET, (0, 0, 1))
         proj = p.computeProjectionMatrixFOV(60, w / h, 0.05, 4.0)
         img = p.getCameraImage(
             w, h, view, proj, renderer=p.ER_TINY_RENDERER, physicsClientId=self.scene.client
@@ -178,7 +255,7 @@ class KitchenEnv(gym.Env):
     def _obs(self) -> dict[str, np.ndarray]:
         ee = self.robot.ee_pose()
         poses = np.array([np.concatenate(self.scene.pose(n)) for n in self.object_names])
-        return {
+        obs = {
             "ee_position": ee.position,
             "ee_orientation": ee.orientation,
             "gripper_width": np.array([self.robot.finger_width()]),
@@ -187,9 +264,23 @@ class KitchenEnv(gym.Env):
             "container_open": np.array([self.scene.open_fraction(c) for c in ARTICULATED]),
             "target": self.target.copy(),
         }
+        if self.kinova is not None:
+            position, orientation = self.kinova.ee_pose()
+            obs["kinova_ee_position"] = position
+            obs["kinova_ee_orientation"] = orientation
+            obs["kinova_gripper_width"] = np.array([self.kinova.gripper_opening()])
+            obs["kinova_joint_positions"] = self.kinova.joint_positions()
+        if self.scene.cloth is not None:
+            obs["cloth_nodes"] = self.scene.cloth_nodes()
+        return obs
 
     def _info(self, success: bool = False) -> dict[str, Any]:
-        return {"success": success, "failure": self.failure, "steps": self.steps}
+        return {
+            "success": success,
+            "failure": self.failure,
+            "failure_detail": self.failure_detail,
+            "steps": self.steps,
+        }
 
     def _check_blowup(self) -> str | None:
         client = self.scene.client
@@ -203,7 +294,16 @@ class KitchenEnv(gym.Env):
                 return "nan_state"
             if np.any(pos < WORKSPACE[0]) or np.any(pos > WORKSPACE[1]):
                 return f"{name}_left_workspace"
+        if self.kinova is not None and not np.all(np.isfinite(self.kinova.joint_positions())):
+            return "nan_state"
+        if self.scene.cloth is not None:
+            nodes = self.scene.cloth_nodes()
+            if not np.all(np.isfinite(nodes)):
+                return "nan_state"
+            if np.any(nodes < WORKSPACE[0]) or np.any(nodes > WORKSPACE[1]):
+                return "cloth_left_workspace"
+        soft = self.scene.cloth  # soft contacts report no meaningful depth
         for pt in p.getContactPoints(physicsClientId=client):
-            if pt[8] < -PENETRATION:
+            if pt[8] < -PENETRATION and soft not in (pt[1], pt[2]):
                 return "deep_penetration"
         return None

@@ -3,8 +3,11 @@
 Success checks of the task suite read PyBullet directly (positions, joint positions, contacts), never the
 perception layer, and are written as predicates of :mod:`taskcond.conditions` where the vocabulary has one:
 
-* ``gripper grasping A``: both finger links touch A;
-* ``gripper not grasping``: neither finger touches any free object;
+* ``gripper grasping A``: both finger links touch A; for the cloth (a soft body, whose contacts PyBullet
+  does not report): the gripper holds it by soft-body anchors, which exist only while its fingers are
+  closed on cloth nodes (:class:`taskcond.sim.cloth.ClothGrips`);
+* ``gripper not grasping``: neither finger touches any free object and the gripper holds no cloth;
+* the same for ``kinova gripper`` (the Kinova's, in dual-arm scenes);
 * ``A open`` / ``A closed``: the container joint is past ``open_fraction`` of its range / within
   :data:`CLOSED_FRACTION` of closed (bowls and mugs are always open);
 * ``A inside B``: A's centre of mass lies in B's interior volume (grown by :data:`INSIDE_MARGIN`);
@@ -27,7 +30,7 @@ from taskcond.conditions import (
     SpatialRelation,
 )
 from taskcond.sim.franka import FINGER_JOINTS
-from taskcond.sim.scene import KitchenScene
+from taskcond.sim.scene import GRIPPER, KINOVA_GRIPPER, KitchenScene
 
 CLOSED_FRACTION = 0.08
 """A container is closed when its joint is within this fraction of its range from closed."""
@@ -46,7 +49,10 @@ class GroundTruth:
         self.scene = scene
 
     def com(self, name: str) -> np.ndarray:
-        """Centre (3,) m, world: centre of mass of a free object, AABB centre of anything else."""
+        """Centre (3,) m, world: centre of mass of a free object, mean node of the cloth, AABB centre of
+        anything else."""
+        if name == "cloth" and self.scene.cloth is not None:
+            return self.scene.cloth_nodes().mean(axis=0)
         if name in self.scene.free_objects:
             return np.array(
                 p.getBasePositionAndOrientation(self.scene.bodies[name], physicsClientId=self.scene.client)[0]
@@ -54,30 +60,43 @@ class GroundTruth:
         lo, hi = self.scene.aabb(name)
         return (lo + hi) / 2
 
-    def finger_contacts(self, name: str) -> tuple[bool, bool]:
-        """Whether the left and the right finger touch ``name``."""
-        robot, body = self.scene.robot.body, self.scene.bodies[name]
+    def _fingers(self, gripper: str) -> tuple[int, tuple[int, int]]:
+        """Arm body and finger links of the gripper named ``gripper``."""
+        if gripper == KINOVA_GRIPPER and self.scene.kinova is not None:
+            return self.scene.kinova.body_id, self.scene.kinova.finger_links
+        if gripper != GRIPPER:
+            raise KeyError(f"no gripper named {gripper!r} in the scene")
+        return self.scene.robot.body, FINGER_JOINTS
+
+    def finger_contacts(self, name: str, gripper: str = GRIPPER) -> tuple[bool, bool]:
+        """Whether the left and the right finger of ``gripper`` touch ``name``."""
+        robot, fingers = self._fingers(gripper)
+        body = self.scene.bodies[name]
         link = self.scene.links.get(name, -1)
         out = []
-        for finger in FINGER_JOINTS:
+        for finger in fingers:
             pts = p.getContactPoints(robot, body, finger, physicsClientId=self.scene.client)
             out.append(any(pt[4] == link or link < 0 for pt in pts))
         return out[0], out[1]
 
-    def grasping(self, name: str) -> bool:
-        left, right = self.finger_contacts(name)
+    def grasping(self, name: str, gripper: str = GRIPPER) -> bool:
+        if name == "cloth" and self.scene.grips is not None:
+            return self.scene.grips.holding(gripper)
+        left, right = self.finger_contacts(name, gripper)
         return left and right
 
-    def grasped(self) -> str | None:
-        """The free object held between both fingers, if any."""
+    def grasped(self, gripper: str = GRIPPER) -> str | None:
+        """The free object held between both fingers (or the cloth held), if any."""
         for name in self.scene.free_objects:
-            if self.grasping(name):
+            if self.grasping(name, gripper):
                 return name
+        if self.scene.grips is not None and self.scene.grips.holding(gripper):
+            return "cloth"
         return None
 
-    def touching_any(self) -> bool:
-        """Whether a finger touches any free object."""
-        return any(any(self.finger_contacts(n)) for n in self.scene.free_objects)
+    def touching_any(self, gripper: str = GRIPPER) -> bool:
+        """Whether a finger of ``gripper`` touches any free object."""
+        return any(any(self.finger_contacts(n, gripper)) for n in self.scene.free_objects)
 
     def is_open(self, container: str) -> bool:
         if container not in self.scene.joints:
@@ -115,10 +134,11 @@ class GroundTruth:
     def holds(self, pred: Predicate) -> bool:
         """Whether a condition holds in the current simulator state."""
         if isinstance(pred, GripperState):
+            g = pred.gripper
             return (
-                self.grasped() is None and not self.touching_any()
+                self.grasped(g) is None and not self.touching_any(g)
                 if pred.obj is None
-                else self.grasping(pred.obj)
+                else self.grasping(pred.obj, g)
             )
         if isinstance(pred, ContainerState):
             return self.is_open(pred.container) if pred.is_open else self.is_closed(pred.container)

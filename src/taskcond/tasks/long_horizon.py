@@ -1,5 +1,5 @@
-"""Long-horizon tasks of the paper's Table I: LHT1-LHT3 and the novel-object variants LHT1*, LHT2* (LHT4
-needs the cloth and is not part of the suite yet).
+"""Long-horizon tasks of the paper's Table I: LHT1-LHT4 and the novel-object variants LHT1*, LHT2*. LHT4
+("Grasp the spatula and place it onto the cloth, then fold the cloth") runs in the dual-arm scene.
 
 A long-horizon task is a sequence of primitive tasks; its oracle runs each primitive's oracle in turn,
 planned from the state the previous one left. Success is checked on the final conditions.
@@ -13,9 +13,12 @@ from collections.abc import Iterator
 import numpy as np
 
 from taskcond.conditions import ContainerState, GripperState, Predicate, Relation, SpatialRelation
+from taskcond.sim.scene import KINOVA_GRIPPER, SceneConfig, dual_arm_config
 from taskcond.tasks.base import PrimitiveTask, Task, TaskInfo
 from taskcond.tasks.close import Close
+from taskcond.tasks.dual_arm import DualArmTrajectory
 from taskcond.tasks.env import KitchenEnv
+from taskcond.tasks.fold import Fold, MoveOntoCloth, folded
 from taskcond.tasks.grasp import Grasp
 from taskcond.tasks.move_into import MoveInto
 from taskcond.tasks.move_on_top import MoveOnTop
@@ -102,8 +105,57 @@ def _drawer_swap(task_id: str, target: str, other: str, description: str) -> Lon
     )
 
 
+class ClothLongHorizonTask(LongHorizonTask):
+    """LHT4 (paper Table I): grasp the spatula (Franka), place it onto the half of the cloth the fold
+    covers, release it, fold the cloth with both arms.
+
+    Every trajectory is dual-arm (the Kinova holds still during the Franka's steps). Success: the cloth is
+    folded (:func:`taskcond.tasks.fold.folded`), neither gripper holds anything, and the spatula lies on
+    the cloth: its centre over the xy bounding box of the cloth's nodes and its lowest point less than
+    :data:`SPATULA_ON_CLOTH_HEIGHT` m above the table (on the bottom layer, under the folded one).
+    """
+
+    def scene_config(self, config: SceneConfig | None) -> SceneConfig | None:
+        return dual_arm_config(config)
+
+    def extra_success(self, env: KitchenEnv) -> bool:
+        if env.scene.cloth is None or not folded(env):
+            return False
+        nodes = env.scene.cloth_nodes()
+        lo, hi = env.scene.aabb("spatula")
+        centre = (lo + hi) / 2
+        over = bool(
+            np.all(centre[:2] >= nodes[:, :2].min(axis=0)) and np.all(centre[:2] <= nodes[:, :2].max(axis=0))
+        )
+        return over and lo[2] <= SPATULA_ON_CLOTH_HEIGHT
+
+    def plans(self, env: KitchenEnv) -> Iterator[DualArmTrajectory]:  # type: ignore[override]
+        for step in self.steps:
+            for trajectory in step.plans(env):
+                yield (
+                    trajectory
+                    if isinstance(trajectory, DualArmTrajectory)
+                    else DualArmTrajectory.hold(env, trajectory)
+                )
+
+
+SPATULA_ON_CLOTH_HEIGHT = 0.02
+"""LHT4: metres above the table the spatula's lowest point may be (it lies on the cloth's bottom layer)."""
+
+
+def lht4() -> ClothLongHorizonTask:
+    """LHT4: spatula onto the cloth, then fold the cloth."""
+    return ClothLongHorizonTask(
+        "LHT4",
+        "Grasp the spatula and place it onto the cloth, then fold the cloth.",
+        (Grasp("spatula"), MoveOntoCloth("spatula"), Release("spatula"), Fold("cloth")),
+        {},
+        (GripperState(None), GripperState(None, KINOVA_GRIPPER)),
+    )
+
+
 def long_horizon_tasks() -> list[LongHorizonTask]:
-    """LHT1, LHT2, LHT3, LHT1*, LHT2* (paper Table I)."""
+    """LHT1, LHT2, LHT3, LHT4, LHT1*, LHT2* (paper Table I)."""
     return [
         _put_into_closed("LHT1", "bottle", "Pick up a bottle, put the bottle into the box, close the box."),
         _drawer_swap(
@@ -131,6 +183,7 @@ def long_horizon_tasks() -> list[LongHorizonTask]:
                 GripperState(None),
             ),
         ),
+        lht4(),
         _put_into_closed("LHT1*", "bowl", "Pick up a bowl, put the bowl into the box, and close the box."),
         _drawer_swap(
             "LHT2*",

@@ -45,13 +45,20 @@ class OracleReport:
         return self.successes / self.episodes if self.episodes else 0.0
 
 
+def _concatenate(parts: list) -> Trajectory:
+    """Join executed trajectories of one kind (single-arm :class:`Trajectory` or dual-arm
+    :class:`~taskcond.tasks.dual_arm.DualArmTrajectory`)."""
+    return type(parts[0]).concatenate(parts) if parts else Trajectory.concatenate(parts)
+
+
 def run_episode(
     env: KitchenEnv, seed: int, recorder: VideoRecorder | None = None
 ) -> tuple[bool, str | None, Trajectory, int]:
     """Reset with ``seed`` and execute the task's oracle; returns (success, failure reason, executed
-    trajectory, control steps)."""
+    trajectory, control steps). Dual-arm tasks return a
+    :class:`~taskcond.tasks.dual_arm.DualArmTrajectory` as the executed trajectory."""
     env.reset(seed=seed)
-    executed: list[Trajectory] = []
+    executed: list = []
     steps = 0
     info: dict = {"success": env.task.success(env), "failure": None}
     action = None
@@ -64,15 +71,15 @@ def run_episode(
             if recorder is not None and steps % VIDEO_EVERY == 0:
                 recorder.add(env.render())
             if terminated:
-                return False, info["failure"], Trajectory.concatenate(executed), steps
+                return False, info["failure"], _concatenate(executed), steps
     for _ in range(SETTLE_STEPS if action is not None else 0):
         _, _, terminated, _, info = env.step(action)
         steps += 1
         if terminated:
-            return False, info["failure"], Trajectory.concatenate(executed), steps
+            return False, info["failure"], _concatenate(executed), steps
     if info["success"]:
-        return True, None, Trajectory.concatenate(executed), steps
-    return False, "not_succeeded", Trajectory.concatenate(executed), steps
+        return True, None, _concatenate(executed), steps
+    return False, "not_succeeded", _concatenate(executed), steps
 
 
 def run_oracle(

@@ -2,8 +2,9 @@
 applies to (ids ``<primitive>-<object>[-<object>]`` with spaces as ``_``, e.g. ``open-top_drawer``,
 ``move_into-bottle-box``) and the long-horizon tasks ``LHT1``, ``LHT2``, ``LHT3``, ``LHT1*``, ``LHT2*``.
 
-The primitive ids are those of :data:`taskcond.primitives.PRIMITIVES`. Fold (PT6) needs the cloth and has
-no entry yet.
+The primitive ids are those of :data:`taskcond.primitives.PRIMITIVES`. The cloth tasks ``grasp-cloth`` and
+``fold-cloth`` (PT6, dual-arm) and ``LHT4`` run in the dual-arm scene with the Kinova and the cloth
+(:func:`taskcond.sim.scene.dual_arm_config`); every other task in the single-arm kitchen.
 """
 
 from __future__ import annotations
@@ -12,7 +13,18 @@ from collections.abc import Callable
 
 from taskcond.primitives import PRIMITIVES
 from taskcond.sim.scene import SceneConfig
-from taskcond.tasks import close, grasp, move, move_in_front, move_into, move_on_top, open, release, tilt
+from taskcond.tasks import (
+    close,
+    fold,
+    grasp,
+    move,
+    move_in_front,
+    move_into,
+    move_on_top,
+    open,
+    release,
+    tilt,
+)
 from taskcond.tasks.base import PrimitiveTask, Task, TaskInfo
 from taskcond.tasks.env import KitchenEnv
 from taskcond.tasks.long_horizon import long_horizon_tasks
@@ -34,6 +46,8 @@ _FAMILIES: dict[str, tuple[type[PrimitiveTask], tuple[tuple[str, ...], ...]]] = 
     "move_in_front": (move_in_front.MoveInFront, move_in_front.PAIRS),
 }
 assert set(_FAMILIES) <= set(PRIMITIVES)
+_CLOTH_TASKS: dict[str, Callable[[], Task]] = {"grasp-cloth": fold.GraspCloth, "fold-cloth": fold.Fold}
+"""Primitive tasks on the cloth (dual-arm scene), registered after the rigid-object families."""
 
 
 def _factories() -> dict[str, Callable[[], Task]]:
@@ -42,6 +56,7 @@ def _factories() -> dict[str, Callable[[], Task]]:
         for objects in combos:
             task = cls(*objects)
             out[task.info.id] = lambda cls=cls, objects=objects: cls(*objects)
+    out.update(_CLOTH_TASKS)
     for lht in long_horizon_tasks():
         out[lht.info.id] = lambda tid=lht.info.id: next(t for t in long_horizon_tasks() if t.info.id == tid)
     return out
@@ -60,8 +75,10 @@ def get_task(task_id: str) -> Task:
     if task_id in _TASKS:
         return _TASKS[task_id]()
     prim, _, rest = task_id.partition("-")
-    if prim in _FAMILIES and rest:
-        valid = ", ".join("-".join(o.replace(" ", "_") for o in objs) for objs in _FAMILIES[prim][1])
+    cloth = [t.partition("-")[2] for t in _CLOTH_TASKS if t.partition("-")[0] == prim]
+    if (prim in _FAMILIES or cloth) and rest:
+        combos = _FAMILIES[prim][1] if prim in _FAMILIES else ()
+        valid = ", ".join([*("-".join(o.replace(" ", "_") for o in objs) for objs in combos), *cloth])
         raise UnknownTaskError(f"unknown object(s) {rest!r} for primitive {prim!r}; valid: {valid}")
     raise UnknownTaskError(f"unknown task {task_id!r}; valid: {', '.join(_TASKS)}")
 

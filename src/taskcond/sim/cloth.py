@@ -1,0 +1,373 @@
+"""The cloth of the task suite (paper §IV: "soft object manipulation such as grasp the cloth", PT6, LHT4):
+a PyBullet mass-spring soft body built from a generated square grid mesh, its state read back from the
+simulation mesh, grasps held by soft-body anchors, and the fold measure.
+
+Frames and units: metres, world frame, z up. The cloth is generated flat in the xy-plane; node ``(i, j)``
+(``i`` along the cloth's local x, ``j`` along its local y, both ``0 .. n - 1``) sits at rest at
+``origin + (i, j) * spacing`` in the cloth's frame, whose origin is the centre of the cloth. The grid's
+nodes are stored row-major: node index ``k = i * n + j``.
+
+A soft body lives only in PyBullet's deformable world, which must be requested by
+``p.resetSimulation(p.RESET_USE_DEFORMABLE_WORLD)`` before anything is loaded into the client (see
+:class:`taskcond.sim.scene.KitchenScene`).
+
+Grasping (:class:`ClothGrips`): PyBullet's soft-rigid contact does not hold a thin cloth between two
+rigid pads (squeezed between them, the nodes are shot away), so the finger links do not collide with the
+cloth and a closed grasp is represented by soft-body anchors. An anchor fixes a node to a
+finger link, and is created only while the gripper is commanded closed, its pads are at most
+:attr:`ClothSpec.pinch_opening` apart (the fingers have actually closed on something thin) and the node
+lies in the box swept between the two pads (:func:`nodes_between_fingers`). Opening the gripper removes the
+anchors. Rigid objects are never anchored: they stay grasped by friction.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import os
+from dataclasses import dataclass, field
+
+import numpy as np
+import pybullet as p
+
+from taskcond.sim.assets import cache_dir
+
+
+@dataclass(frozen=True)
+class ClothSpec:
+    """A square cloth.
+
+    Attributes:
+        size: edge length (m).
+        resolution: nodes per edge (``n``); ``n * n`` nodes, ``2 (n - 1)^2`` triangles.
+        mass: total mass (kg).
+        elastic_stiffness, damping_stiffness, bending_stiffness: PyBullet mass-spring parameters.
+        friction: soft-rigid friction coefficient.
+        collision_margin: soft-body collision margin (m); the cloth rests this far above a surface.
+        self_collision: PyBullet soft self-collision (the folded layers do not pass through each other).
+        rgba: colour.
+        pinch_opening: largest opening (m) between the pads at which a closed gripper counts as closed on
+            the cloth (the cloth is thinner than this).
+        pad_margin: metres by which the box between the pads is grown for anchoring (the nodes lie at the
+            cloth's mid-surface, the fingertips stop at the table).
+        max_anchors: anchors per gripper (the nodes nearest the grasp point).
+    """
+
+    size: float = 0.26
+    resolution: int = 15
+    mass: float = 0.1
+    elastic_stiffness: float = 40.0
+    damping_stiffness: float = 0.1
+    bending_stiffness: float = 2.0
+    friction: float = 4.0
+    collision_margin: float = 0.004
+    self_collision: bool = True
+    rgba: tuple[float, float, float, float] = (0.25, 0.55, 0.85, 1.0)
+    pinch_opening: float = 0.02
+    pad_margin: float = 0.012
+    max_anchors: int = 3
+
+    def __post_init__(self) -> None:
+        if self.resolution < 3:
+            raise ValueError(f"cloth resolution must be at least 3 nodes per edge, not {self.resolution}")
+        if self.size <= 0 or self.mass <= 0:
+            raise ValueError(f"cloth size and mass must be positive, not {self.size} m, {self.mass} kg")
+
+    @property
+    def spacing(self) -> float:
+        """Rest distance (m) between neighbouring nodes."""
+        return self.size / (self.resolution - 1)
+
+    def rest_nodes(self) -> np.ndarray:
+        """(n*n, 2) node positions (m) in the flat cloth's frame (centre at the origin), row-major."""
+        n = self.resolution
+        axis = (np.arange(n) - (n - 1) / 2) * self.spacing
+        ii, jj = np.meshgrid(axis, axis, indexing="ij")
+        return np.stack([ii.ravel(), jj.ravel()], axis=1)
+
+    def triangles(self) -> np.ndarray:
+        """(2 (n-1)^2, 3) node indices of the mesh's triangles, counter-clockwise seen from +z."""
+        n = self.resolution
+        i, j = np.meshgrid(np.arange(n - 1), np.arange(n - 1), indexing="ij")
+        a = (i * n + j).ravel()
+        b, c, d = a + n, a + n + 1, a + 1
+        return np.concatenate([np.stack([a, b, c], 1), np.stack([a, c, d], 1)])
+
+    def edge(self, side: str) -> np.ndarray:
+        """Node indices (n,) of one edge, ordered by the other coordinate: ``"-x"``, ``"+x"``, ``"-y"``,
+        ``"+y"`` (local frame)."""
+        n = self.resolution
+        grid = np.arange(n * n).reshape(n, n)
+        edges = {"-x": grid[0], "+x": grid[-1], "-y": grid[:, 0], "+y": grid[:, -1]}
+        if side not in edges:
+            raise ValueError(f"unknown cloth edge {side!r}; valid: {', '.join(edges)}")
+        return edges[side]
+
+
+def cloth_obj_path(spec: ClothSpec) -> str:
+    """Write the flat grid mesh of ``spec`` as a Wavefront OBJ once (content-hashed, atomically) into the
+    asset cache and return its path. Vertices in metres, cloth frame, z = 0."""
+    nodes = spec.rest_nodes()
+    lines = ["# taskcond cloth grid"]
+    lines += [f"v {x:.6f} {y:.6f} 0.000000" for x, y in nodes]
+    lines += [f"vt {(x / spec.size) + 0.5:.6f} {(y / spec.size) + 0.5:.6f}" for x, y in nodes]
+    lines += ["vn 0 0 1"]
+    lines += [f"f {a + 1}/{a + 1}/1 {b + 1}/{b + 1}/1 {c + 1}/{c + 1}/1" for a, b, c in spec.triangles()]
+    text = "\n".join(lines) + "\n"
+    digest = hashlib.sha1(text.encode()).hexdigest()[:16]
+    path = cache_dir() / f"cloth-{digest}.obj"
+    if not path.exists():
+        tmp = path.with_suffix(f".{os.getpid()}.tmp")
+        tmp.write_text(text)
+        os.replace(tmp, path)
+    return str(path)
+
+
+def load_cloth(client: int, spec: ClothSpec, center: tuple[float, float, float], yaw: float = 0.0) -> int:
+    """Load the cloth as a soft body, flat, centred at ``center`` (3,) m, turned ``yaw`` rad about z.
+
+    The client must be a deformable world (see the module docstring). Returns the body id.
+    """
+    body = p.loadSoftBody(
+        cloth_obj_path(spec),
+        basePosition=list(center),
+        baseOrientation=p.getQuaternionFromEuler((0.0, 0.0, yaw)),
+        scale=1.0,
+        mass=spec.mass,
+        useNeoHookean=0,
+        useBendingSprings=1,
+        useMassSpring=1,
+        springElasticStiffness=spec.elastic_stiffness,
+        springDampingStiffness=spec.damping_stiffness,
+        springDampingAllDirections=1,
+        springBendingStiffness=spec.bending_stiffness,
+        useSelfCollision=int(spec.self_collision),
+        frictionCoeff=spec.friction,
+        useFaceContact=1,
+        collisionMargin=spec.collision_margin,
+        physicsClientId=client,
+    )
+    p.changeVisualShape(
+        body, -1, rgbaColor=list(spec.rgba), flags=p.VISUAL_SHAPE_DOUBLE_SIDED, physicsClientId=client
+    )
+    return body
+
+
+def cloth_nodes(client: int, body: int) -> np.ndarray:
+    """(n*n, 3) world positions (m) of the cloth's simulation-mesh nodes, in the order of the grid."""
+    _, vertices = p.getMeshData(body, -1, flags=p.MESH_DATA_SIMULATION_MESH, physicsClientId=client)
+    return np.asarray(vertices, dtype=float)
+
+
+# ------------------------------------------------------------------------------------------------- grasp
+@dataclass(frozen=True)
+class FingerFrame:
+    """Where a parallel gripper's pads are: ``center`` (3,) midpoint between the two finger links,
+    ``closing`` (3,) unit axis from one finger to the other, ``approach`` (3,) unit axis pointing out of the
+    hand (towards the fingertips), ``half_opening`` (m), ``pad_half_width`` and ``pad_half_length`` (m): the
+    pads' half extents across the closing axis, horizontally and along the approach axis."""
+
+    center: np.ndarray
+    closing: np.ndarray
+    approach: np.ndarray
+    half_opening: float
+    pad_half_width: float
+    pad_half_length: float
+
+
+def finger_frame(client: int, body: int, finger_links: tuple[int, int], ee_link: int) -> FingerFrame:
+    """The pads of a gripper, from the world AABBs and link frames of its finger links and its
+    end-effector link (works for the Franka and the Kinova: both have the approach axis along the
+    end-effector link's z)."""
+    states = [
+        p.getLinkState(body, link, computeForwardKinematics=True, physicsClientId=client)
+        for link in finger_links
+    ]
+    a, b = np.array(states[0][0]), np.array(states[1][0])  # link centres of mass (pad centres)
+    ee = p.getLinkState(body, ee_link, computeForwardKinematics=True, physicsClientId=client)
+    rot = np.array(p.getMatrixFromQuaternion(ee[5])).reshape(3, 3)
+    approach = rot[:, 2]
+    closing = b - a
+    distance = float(np.linalg.norm(closing))
+    closing = closing / distance if distance > 1e-9 else rot[:, 1]
+    lo, hi = np.array(p.getAABB(body, finger_links[0], physicsClientId=client))
+    extent = hi - lo
+    across = np.cross(approach, closing)
+    return FingerFrame(
+        center=(a + b) / 2,
+        closing=closing,
+        approach=approach,
+        half_opening=distance / 2,
+        pad_half_width=float(abs(across) @ extent) / 2,
+        pad_half_length=float(abs(approach) @ extent) / 2,
+    )
+
+
+def nodes_between_fingers(nodes: np.ndarray, frame: FingerFrame, margin: float) -> np.ndarray:
+    """Indices of the ``nodes`` (k, 3) lying in the box between the two pads, grown by ``margin`` m across
+    and along the approach axis (not along the closing axis: a node must be between the fingers)."""
+    rel = nodes - frame.center
+    across = np.cross(frame.approach, frame.closing)
+    inside = (
+        (np.abs(rel @ frame.closing) <= frame.half_opening)
+        & (np.abs(rel @ across) <= frame.pad_half_width + margin)
+        & (np.abs(rel @ frame.approach) <= frame.pad_half_length + margin)
+    )
+    return np.flatnonzero(inside)
+
+
+@dataclass(frozen=True)
+class GripperHandle:
+    """What :class:`ClothGrips` needs of one gripper: its name, arm body, finger links, end-effector link,
+    and callables telling whether it is commanded closed and its current pad opening (m)."""
+
+    name: str
+    body: int
+    finger_links: tuple[int, int]
+    ee_link: int
+    closed: object  # Callable[[], bool]
+    opening: object  # Callable[[], float]
+
+
+@dataclass
+class ClothGrips:
+    """Soft-body anchors standing in for the grips of the grippers on the cloth (see the module docstring).
+
+    Call :meth:`update` after every control step; :attr:`anchors` maps a gripper name to its anchor
+    constraint ids and :attr:`nodes` to the anchored node indices.
+    """
+
+    client: int
+    cloth: int
+    spec: ClothSpec
+    grippers: list[GripperHandle]
+    anchors: dict[str, list[int]] = field(default_factory=dict)
+    nodes: dict[str, list[int]] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        self.ignore_fingers()
+
+    def ignore_fingers(self) -> None:
+        """Turn off collisions between the cloth and every finger link (call again after the cloth is
+        reloaded). PyBullet's soft contact between two pads squeezing a cloth is unstable (measured here:
+        the nodes between the pads are shot away within two control steps), so the closed grip is the anchors
+        alone and the pads pass through the cloth."""
+        for g in self.grippers:
+            for link in g.finger_links:
+                p.setCollisionFilterPair(self.cloth, g.body, -1, link, 0, physicsClientId=self.client)
+
+    def update(self) -> None:
+        """Anchor the cloth to every gripper closed on it; release every gripper that opened."""
+        positions: np.ndarray | None = None
+        for g in self.grippers:
+            closed = bool(g.closed())  # type: ignore[operator]
+            if not closed:
+                self.release(g.name)
+                continue
+            if self.anchors.get(g.name) or float(g.opening()) > self.spec.pinch_opening:  # type: ignore[operator]
+                continue
+            if positions is None:
+                positions = cloth_nodes(self.client, self.cloth)
+            frame = finger_frame(self.client, g.body, g.finger_links, g.ee_link)
+            found = nodes_between_fingers(positions, frame, self.spec.pad_margin)
+            if found.size == 0:
+                continue
+            order = np.argsort(np.linalg.norm(positions[found] - frame.center, axis=1))
+            chosen = found[order[: self.spec.max_anchors]]
+            self.anchors[g.name] = [
+                p.createSoftBodyAnchor(
+                    self.cloth, int(k), g.body, g.finger_links[0], physicsClientId=self.client
+                )
+                for k in chosen
+            ]
+            self.nodes[g.name] = [int(k) for k in chosen]
+
+    def release(self, name: str) -> None:
+        """Remove the anchors of gripper ``name``."""
+        for anchor in self.anchors.pop(name, []):
+            p.removeConstraint(anchor, physicsClientId=self.client)
+        self.nodes.pop(name, None)
+
+    def release_all(self) -> None:
+        for name in list(self.anchors):
+            self.release(name)
+
+    def holding(self, name: str) -> bool:
+        """Whether gripper ``name`` holds the cloth (has anchors on it)."""
+        return bool(self.anchors.get(name))
+
+
+# -------------------------------------------------------------------------------------------------- fold
+@dataclass(frozen=True)
+class FoldMeasure:
+    """How well a cloth is folded in half, measured on its simulation mesh.
+
+    Attributes:
+        double_fraction: area of the table covered by at least two layers of cloth (rasterized projection
+            onto the xy-plane), divided by half the cloth's area: 1 for a perfect fold in half, 0 flat.
+        edge_distance: mean distance (m) between the nodes of the moved edge and the nodes of the opposite
+            edge they were laid onto (matched by position along the edge).
+        max_height: highest node above the table (m).
+    """
+
+    double_fraction: float
+    edge_distance: float
+    max_height: float
+
+
+def covered_layers(nodes: np.ndarray, triangles: np.ndarray, cell: float) -> tuple[np.ndarray, float]:
+    """Number of cloth layers over each cell of an xy raster of pitch ``cell`` m spanning the cloth's
+    projection: counts (ny, nx) of the triangles whose xy projection contains the cell centre, and the cell
+    area (m²). Degenerate (edge-on) triangles are skipped."""
+    xy = nodes[:, :2]
+    lo, hi = xy.min(axis=0), xy.max(axis=0)
+    xs = np.arange(lo[0] + cell / 2, hi[0], cell)
+    ys = np.arange(lo[1] + cell / 2, hi[1], cell)
+    gx, gy = np.meshgrid(xs, ys)
+    pts = np.stack([gx.ravel(), gy.ravel()], axis=1)  # (m, 2)
+    a, b, c = xy[triangles[:, 0]], xy[triangles[:, 1]], xy[triangles[:, 2]]  # (t, 2)
+    v0, v1 = b - a, c - a
+    det = v0[:, 0] * v1[:, 1] - v0[:, 1] * v1[:, 0]
+    keep = np.abs(det) > 1e-12
+    a, v0, v1, det = a[keep], v0[keep], v1[keep], det[keep]
+    rel = pts[:, None, :] - a[None]  # (m, t, 2)
+    u = (rel[..., 0] * v1[:, 1] - rel[..., 1] * v1[:, 0]) / det
+    v = (v0[:, 0] * rel[..., 1] - v0[:, 1] * rel[..., 0]) / det
+    inside = (u >= 0) & (v >= 0) & (u + v <= 1)
+    return inside.sum(axis=1).reshape(gy.shape), cell * cell
+
+
+def fold_measure(
+    nodes: np.ndarray, spec: ClothSpec, moved: str, onto: str, cell: float = 0.005
+) -> FoldMeasure:
+    """Measure a fold that laid edge ``moved`` onto edge ``onto`` (sides as in :meth:`ClothSpec.edge`).
+
+    Args:
+        nodes: (n*n, 3) world node positions (m), from :func:`cloth_nodes`.
+        spec: the cloth.
+        moved, onto: the edges.
+        cell: raster pitch (m) of the coverage count.
+    """
+    counts, area = covered_layers(nodes, spec.triangles(), cell)
+    double = float((counts >= 2).sum() * area) / (spec.size**2 / 2)
+    a, b = nodes[spec.edge(moved)], nodes[spec.edge(onto)]
+    return FoldMeasure(
+        double_fraction=double,
+        edge_distance=float(np.linalg.norm(a - b, axis=1).mean()),
+        max_height=float(nodes[:, 2].max()),
+    )
+
+
+__all__ = [
+    "ClothGrips",
+    "ClothSpec",
+    "FingerFrame",
+    "FoldMeasure",
+    "GripperHandle",
+    "cloth_nodes",
+    "cloth_obj_path",
+    "covered_layers",
+    "finger_frame",
+    "fold_measure",
+    "load_cloth",
+    "nodes_between_fingers",
+]

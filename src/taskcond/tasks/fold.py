@@ -1,0 +1,265 @@
+"""The cloth tasks of the suite (paper §IV, Table I): PT6 Fold (dual-arm), grasp the cloth (PT1 on a soft
+object) and the cloth step of LHT4, "move spatula on top of cloth".
+
+Scene: :func:`taskcond.sim.scene.dual_arm_config`: the Kinova Gen3 on the Franka's left (+y), the cloth
+(:mod:`taskcond.sim.cloth`) flat between them with its edges along x and y. The cloth's local ``-x`` edge
+faces the robots; its ``-y`` end is the Franka's side, its ``+y`` end the Kinova's.
+
+Fold oracle (scripted, dual-arm): the Franka takes the near edge's ``-y`` corner and the Kinova its ``+y``
+corner, both top-down with the fingers closing across the edge; both lift the edge, carry it over the fold
+line on a half-ellipse and lay it onto the far (``+x``) edge, then let go and rise. Timing is shared, so
+the edge stays straight.
+
+Fold success, measured on the simulation mesh (:func:`taskcond.sim.cloth.fold_measure`): at least
+:data:`MIN_DOUBLE_FRACTION` of half the cloth's area is covered by two layers, the moved edge lies on the
+far edge (mean node distance at most :data:`MAX_EDGE_DISTANCE`), and neither gripper holds the cloth.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterator
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from taskcond.conditions import GripperState, Predicate, Relation, SpatialRelation
+from taskcond.sim.cloth import ClothSpec, FoldMeasure, fold_measure
+from taskcond.sim.franka import top_down
+from taskcond.sim.scene import KINOVA_GRIPPER, SceneConfig, dual_arm_config
+from taskcond.tasks.base import PrimitiveTask
+from taskcond.tasks.dual_arm import DualArmTrajectory
+from taskcond.tasks.env import KitchenEnv
+from taskcond.tasks.skills import CLOSED, GRIP_TIME, OPEN, bottom_to_com, carry, nearest_grip, plan
+from taskcond.tasks.trajectory import Trajectory, Waypoint
+
+MIN_DOUBLE_FRACTION = 0.75
+"""Fold success: fraction of half the cloth's area that must lie under two layers."""
+MAX_EDGE_DISTANCE = 0.03
+"""Fold success: largest mean distance (m) between the moved edge's nodes and the far edge's."""
+MOVED_EDGE, ONTO_EDGE = "-x", "+x"
+"""The fold lays the cloth's near edge (facing the robots) onto its far edge."""
+FRANKA_GRASP_Z = 0.013
+"""Franka end-effector height (m) grasping the cloth on the table: fingertips about 2 mm above it."""
+KINOVA_GRASP_Z = 0.022
+"""Kinova tool-centre-point height (m) grasping the cloth: fingertips about 2 mm above the table."""
+INSET = 0.012
+"""Metres the grasp point lies inside the cloth from the corner, along both edges."""
+ARC_HEIGHT = 0.8
+"""Height of the fold's half-ellipse as a fraction of its half-width (half the cloth's length). Below 1,
+the ellipse stays inside the circle about the fold line the grasped edge could reach with the cloth taut,
+so the lower half is never dragged."""
+ARC_POINTS = 8
+ARC_TIME = 2.4
+"""Seconds of the fold's arc."""
+PLACE_Z = 0.012
+"""Height (m) above the grasp height where the moved edge is let go (on top of the lower layer)."""
+CLOTH_LIFT = 0.05
+"""Grasp cloth success: the highest cloth node is at least this high (m) above the table."""
+
+
+def _up(z: float) -> np.ndarray:
+    """Vertical offset (3,) of ``z`` m."""
+    return np.array([0.0, 0.0, z])
+
+
+def _require_cloth(env: KitchenEnv, task: str) -> ClothSpec:
+    if env.scene.cloth is None or env.scene.config.cloth is None:
+        raise ValueError(
+            f"{task} needs a cloth in the scene, and this scene has none (SceneConfig.cloth is None)"
+        )
+    return env.scene.config.cloth
+
+
+def measure(env: KitchenEnv) -> FoldMeasure:
+    """The fold measure of the current cloth (see :func:`taskcond.sim.cloth.fold_measure`).
+
+    Raises:
+        ValueError: the scene has no cloth.
+    """
+    spec = _require_cloth(env, "the fold measure")
+    return fold_measure(env.scene.cloth_nodes(), spec, MOVED_EDGE, ONTO_EDGE)
+
+
+def folded(env: KitchenEnv) -> bool:
+    """Whether the cloth is folded in half (:data:`MIN_DOUBLE_FRACTION`, :data:`MAX_EDGE_DISTANCE`);
+    ``False`` without a cloth."""
+    if env.scene.cloth is None:
+        return False
+    m = measure(env)
+    return m.double_fraction >= MIN_DOUBLE_FRACTION and m.edge_distance <= MAX_EDGE_DISTANCE
+
+
+def _cloth_axes(env: KitchenEnv, spec: ClothSpec) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Current corners of the moved edge (2, 3) (``-y`` end first), of the far edge (2, 3), and the unit
+    horizontal direction (3,) from the moved edge to the far edge."""
+    nodes = env.scene.cloth_nodes()
+    moved, onto = spec.edge(MOVED_EDGE), spec.edge(ONTO_EDGE)
+    near = nodes[[moved[0], moved[-1]]]
+    far = nodes[[onto[0], onto[-1]]]
+    direction = (far - near).mean(axis=0)
+    direction[2] = 0.0
+    return near, far, direction / np.linalg.norm(direction)
+
+
+class Fold(PrimitiveTask):
+    """PT6 Fold the cloth in half with both arms (see the module docstring)."""
+
+    primitive_id = "fold"
+    max_steps = 360
+
+    def __init__(self, obj: str = "cloth") -> None:
+        super().__init__(obj)
+
+    def scene_config(self, config: SceneConfig | None) -> SceneConfig | None:
+        return dual_arm_config(config)
+
+    def post_conditions(self) -> tuple[Predicate, ...]:
+        return (GripperState(None), GripperState(None, KINOVA_GRIPPER))
+
+    def extra_success(self, env: KitchenEnv) -> bool:
+        return folded(env)
+
+    def plans(self, env: KitchenEnv) -> Iterator[DualArmTrajectory]:  # type: ignore[override]
+        yield fold_trajectory(env)
+
+
+def fold_trajectory(env: KitchenEnv) -> DualArmTrajectory:
+    """The dual-arm fold oracle, planned from the current cloth (see the module docstring).
+
+    Raises:
+        ValueError: the scene has no cloth or no Kinova.
+    """
+    spec = _require_cloth(env, "fold")
+    if env.kinova is None:
+        raise ValueError("fold needs the Kinova in the scene (SceneConfig.kinova)")
+    near, far, ahead = _cloth_axes(env, spec)
+    along = (near[1] - near[0]) / np.linalg.norm(near[1] - near[0])
+    yaw = math.atan2(ahead[1], ahead[0]) + math.pi / 2  # fingers close along the edge
+    orientation = np.array(top_down(yaw))
+    arms: list[list[Waypoint]] = []
+    for k, grasp_z in ((0, FRANKA_GRASP_Z), (1, KINOVA_GRASP_Z)):
+        inward = ahead * INSET + along * (INSET if k == 0 else -INSET)
+        start = near[k] + inward
+        start[2] = grasp_z
+        goal = far[k] - ahead * INSET + along * (INSET if k == 0 else -INSET)
+        goal[2] = grasp_z + PLACE_Z
+        half = float((goal - start) @ ahead) / 2
+        mid = start + ahead * half
+        wps = [
+            Waypoint(start + _up(0.08), orientation, OPEN),
+            Waypoint(start, orientation, OPEN),
+            Waypoint(start, orientation, CLOSED),
+        ]
+        for theta in np.linspace(0, math.pi, ARC_POINTS + 1)[1:]:
+            point = mid - ahead * half * math.cos(theta)
+            point[2] = grasp_z + ARC_HEIGHT * half * math.sin(theta)
+            wps.append(Waypoint(point, orientation, CLOSED))
+        wps += [
+            Waypoint(goal, orientation, CLOSED),
+            Waypoint(goal, orientation, OPEN),
+            Waypoint(goal + _up(0.08), orientation, OPEN),
+        ]
+        arms.append(wps)
+    durations = [1.6, 0.8, GRIP_TIME, *([ARC_TIME / ARC_POINTS] * ARC_POINTS), 0.6, GRIP_TIME, 0.6]
+    return DualArmTrajectory.from_waypoints(env, arms[0], arms[1], durations)
+
+
+class GraspCloth(PrimitiveTask):
+    """PT1 Grasp on the cloth: the Franka takes the near ``-y`` corner from above and lifts it.
+
+    Success: ``gripper grasping cloth`` (the anchors of a closed grip) and the cloth's highest node at
+    least :data:`CLOTH_LIFT` m above the table.
+    """
+
+    primitive_id = "grasp"
+    max_steps = 200
+
+    def __init__(self) -> None:
+        super().__init__("cloth")
+
+    def scene_config(self, config: SceneConfig | None) -> SceneConfig | None:
+        return dual_arm_config(config)
+
+    def post_conditions(self) -> tuple[Predicate, ...]:
+        return (GripperState("cloth"),)
+
+    def extra_success(self, env: KitchenEnv) -> bool:
+        return env.scene.cloth is not None and float(env.scene.cloth_nodes()[:, 2].max()) >= CLOTH_LIFT
+
+    def waypoints(self, env: KitchenEnv) -> list[Waypoint]:
+        spec = _require_cloth(env, "grasp cloth")
+        near, _, ahead = _cloth_axes(env, spec)
+        along = (near[1] - near[0]) / np.linalg.norm(near[1] - near[0])
+        orientation = np.array(top_down(math.atan2(ahead[1], ahead[0])))
+        start = near[0] + (ahead + along) * INSET
+        start[2] = FRANKA_GRASP_Z
+        return [
+            Waypoint(start + _up(0.08), orientation, OPEN),
+            Waypoint(start, orientation, OPEN, 0.8),
+            Waypoint(start, orientation, CLOSED, GRIP_TIME),
+            Waypoint(start + _up(0.12), orientation, CLOSED, 1.0),
+            Waypoint(start + _up(0.12), orientation, CLOSED, 0.3),
+        ]
+
+
+SPATULA_ON_CLOTH = 0.35
+"""Where LHT4 puts the spatula: this fraction of the cloth's length beyond its centre, towards the far
+edge (the half the fold covers), turned along the fold line."""
+DROP = 0.012
+"""Height (m) of the spatula's lowest point above the cloth's top where the oracle lets go."""
+
+
+class MoveOntoCloth(PrimitiveTask):
+    """PT8 Move A on top of the cloth, the step of LHT4: carry the held A over the half of the cloth the fold
+    will cover, turned parallel to the fold line, and lower it onto the cloth.
+
+    Success: ``A above cloth`` with A's lowest point at most 3 cm above the cloth's top.
+    """
+
+    primitive_id = "move_on_top"
+    max_steps = 300
+
+    def __init__(self, obj: str = "spatula") -> None:
+        super().__init__(obj, "cloth")
+
+    def scene_config(self, config: SceneConfig | None) -> SceneConfig | None:
+        return dual_arm_config(config)
+
+    def post_conditions(self) -> tuple[Predicate, ...]:
+        return (SpatialRelation(self.objects[0], Relation.ABOVE, "cloth"),)
+
+    def extra_success(self, env: KitchenEnv) -> bool:
+        return env.truth.height_over(self.objects[0], "cloth") <= 0.03
+
+    def waypoints(self, env: KitchenEnv) -> list[Waypoint]:
+        spec = _require_cloth(env, "move onto cloth")
+        obj = self.objects[0]
+        near, far, ahead = _cloth_axes(env, spec)
+        centre = (near.sum(axis=0) + far.sum(axis=0)) / 4
+        _, hi = env.scene.aabb("cloth")
+        goal = centre + ahead * spec.size * SPATULA_ON_CLOTH
+        goal[2] = hi[2] + DROP + bottom_to_com(env, obj)
+        hand = env.robot.ee_pose().orientation
+        # the object's long axis (hand yaw + grasp offset 0) turned to lie along the fold line
+        turned = (Rotation.from_euler("z", math.pi / 2) * Rotation.from_quat(hand)).as_quat()
+        turned = nearest_grip(turned, hand)
+        return carry(env, obj, goal, clearance=hi[2] + 0.05, orientation=turned)
+
+
+def held_by_kinova(env: KitchenEnv, trajectory: Trajectory) -> DualArmTrajectory:
+    """A single-arm (Franka) trajectory as a dual-arm one, the Kinova holding still."""
+    return DualArmTrajectory.hold(env, trajectory)
+
+
+__all__ = [
+    "MAX_EDGE_DISTANCE",
+    "MIN_DOUBLE_FRACTION",
+    "Fold",
+    "GraspCloth",
+    "MoveOntoCloth",
+    "fold_trajectory",
+    "folded",
+    "measure",
+    "plan",
+]
