@@ -15,7 +15,7 @@ import multiprocessing
 import os
 import time
 from collections import Counter, defaultdict
-from collections.abc import Callable, Iterable, Iterator
+from collections.abc import Callable, Iterable
 from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 from typing import Any
@@ -355,12 +355,6 @@ def cpu_count() -> int:
     return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
 
 
-def iter_events(result: EpisodeResult) -> Iterator[str]:
-    """The trace's messages, indented by recursion depth."""
-    for e in result.events:
-        yield f"{e['time']:7.2f}s {'  ' * e['depth']}{e['message']}"
-
-
 __all__ = [
     "DEFAULT_NOISE",
     "EpisodeResult",
@@ -370,7 +364,6 @@ __all__ = [
     "default_library_dir",
     "eval_task_ids",
     "evaluate",
-    "iter_events",
     "jobs_for",
     "load_library",
     "make_source",

@@ -166,14 +166,6 @@ class Skill:
             return first.dmp.y0 - (first.dmp.goal - first.offset)
         return first.dmp.y0
 
-    def target_for(self, objects: tuple[str, ...]) -> str | None:
-        """The name to locate for a task on ``objects``: an object, ``"position"`` or None."""
-        if self.target_role is None:
-            return None
-        if self.target_role < 0:
-            return "position"
-        return objects[self.target_role] if self.target_role < len(objects) else None
-
 
 TARGET_ROLE: dict[str, int | None] = {
     "grasp": 0,
