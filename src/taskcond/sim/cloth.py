@@ -320,6 +320,7 @@ def covered_layers(nodes: np.ndarray, triangles: np.ndarray, cell: float) -> tup
     area (m²). Degenerate (edge-on) triangles are skipped."""
     xy = nodes[:, :2]
     lo, hi = xy.min(axis=0), xy.max(axis=0)
+    cell = max(cell, float((hi - lo).max()) / 400)  # a torn-apart cloth: at most 400 × 400 cells
     xs = np.arange(lo[0] + cell / 2, hi[0], cell)
     ys = np.arange(lo[1] + cell / 2, hi[1], cell)
     gx, gy = np.meshgrid(xs, ys)

@@ -234,6 +234,15 @@ class KitchenScene:
             self.links["cloth"] = -1
             self.specs["cloth"] = cfg.cloth  # type: ignore[assignment]
             self.grips = ClothGrips(self.client, self.cloth, cfg.cloth, self._grip_handles())
+            self._ignore_free_objects()
+
+    def _ignore_free_objects(self) -> None:
+        """No collisions between the cloth and the free objects: a rigid object resting on the cloth on the
+        table (the spatula of LHT4) makes PyBullet's soft contact blow up within a second (measured here, with
+        and without self-collision), so objects "on" the cloth rest on the table through it."""
+        assert self.cloth is not None
+        for name in self.free_objects:
+            p.setCollisionFilterPair(self.cloth, self.bodies[name], -1, -1, 0, physicsClientId=self.client)
 
     def _grip_handles(self) -> list[GripperHandle]:
         robot = self.robot
@@ -290,6 +299,7 @@ class KitchenScene:
         if body != self.cloth:
             raise RuntimeError(f"PyBullet gave the reloaded cloth body id {body}, not {self.cloth}")
         self.grips.ignore_fingers()
+        self._ignore_free_objects()
 
     def _load(self, name: str, spec: AssetSpec, position: tuple[float, float, float], fixed: bool) -> None:
         asset = build_asset(name.replace(" ", "_"), spec)
