@@ -317,12 +317,16 @@ class FoldMeasure:
 def covered_layers(nodes: np.ndarray, triangles: np.ndarray, cell: float) -> tuple[np.ndarray, float]:
     """Number of cloth layers over each cell of an xy raster of pitch ``cell`` m spanning the cloth's
     projection: counts (ny, nx) of the triangles whose xy projection contains the cell centre, and the cell
-    area (m²). Degenerate (edge-on) triangles are skipped."""
+    area (m²). Degenerate (edge-on) triangles are skipped; a centre counts for a triangle only strictly
+    inside it, so a flat layer counts once."""
     xy = nodes[:, :2]
     lo, hi = xy.min(axis=0), xy.max(axis=0)
     cell = max(cell, float((hi - lo).max()) / 400)  # a torn-apart cloth: at most 400 × 400 cells
-    xs = np.arange(lo[0] + cell / 2, hi[0], cell)
-    ys = np.arange(lo[1] + cell / 2, hi[1], cell)
+    # Cell centres are shifted off the half-cell grid by an odd fraction, so that on a regular mesh they do
+    # not fall on the triangles' shared edges (where the strict test below would miss both triangles).
+    # Different shifts along x and y keep them off the diagonals too.
+    xs = np.arange(lo[0] + cell * 0.5137, hi[0], cell)
+    ys = np.arange(lo[1] + cell * 0.5291, hi[1], cell)
     gx, gy = np.meshgrid(xs, ys)
     pts = np.stack([gx.ravel(), gy.ravel()], axis=1)  # (m, 2)
     a, b, c = xy[triangles[:, 0]], xy[triangles[:, 1]], xy[triangles[:, 2]]  # (t, 2)
@@ -333,7 +337,7 @@ def covered_layers(nodes: np.ndarray, triangles: np.ndarray, cell: float) -> tup
     rel = pts[:, None, :] - a[None]  # (m, t, 2)
     u = (rel[..., 0] * v1[:, 1] - rel[..., 1] * v1[:, 0]) / det
     v = (v0[:, 0] * rel[..., 1] - v0[:, 1] * rel[..., 0]) / det
-    inside = (u >= 0) & (v >= 0) & (u + v <= 1)
+    inside = (u > 0) & (v > 0) & (u + v < 1)
     return inside.sum(axis=1).reshape(gy.shape), cell * cell
 
 

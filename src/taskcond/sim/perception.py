@@ -23,6 +23,12 @@ joint moves) belongs to its container in contacts and visibility but not to its 
 gripper's arm is the gripper in contacts; the gripper's *box* is the axis-aligned box of its two finger
 links and its *centre* the grasp point (end-effector link), both from forward kinematics in both modes and
 never noisy (a robot knows where its own hand is).
+
+Two arms (dual-arm scenes): the Franka's gripper is ``gripper``, the Kinova's ``kinova gripper``; each gets
+its box and its own ``... grasping X`` / ``... not grasping`` state. The cloth (a soft body) gets its box
+from PyBullet's AABB of its simulation mesh (ground-truth mode) or from its pixels (point-cloud mode) and
+takes part in the relations like any object (``spatula above cloth``); a gripper grasps it when its closed
+fingers hold mesh nodes between them (see :meth:`Perception._soft_grasped`).
 """
 
 from __future__ import annotations
@@ -44,6 +50,7 @@ from taskcond.conditions import (
     SpatialRelation,
 )
 from taskcond.sim.camera import CameraSpec, RGBDFrame, render
+from taskcond.sim.cloth import ClothSpec, cloth_nodes, finger_frame, nodes_between_fingers
 from taskcond.sim.description import GripperSpec, SceneDescription
 
 Mode = Literal["ground_truth", "point_cloud"]
@@ -499,8 +506,30 @@ class Perception:
                 if _unit(per_finger[0][name][0]) @ _unit(per_finger[1][name][0])
                 <= -self.config.thresholds.grasp_opposition
             ]
-            states.append(GripperState(max(grasped)[1] if grasped else None, gripper.name))
+            soft = None if grasped else self._soft_grasped(gripper)
+            states.append(GripperState(max(grasped)[1] if grasped else soft, gripper.name))
         return states
+
+    def _soft_grasped(self, gripper: GripperSpec) -> str | None:
+        """The soft body (cloth) a gripper holds: its fingers are closed to at most
+        :attr:`~taskcond.sim.cloth.ClothSpec.pinch_opening` (sum of the finger joint positions) with mesh
+        nodes between the pads (:func:`~taskcond.sim.cloth.nodes_between_fingers`); the same rule that
+        creates the simulator's grip anchors, read from the mesh since the pads do not touch the cloth."""
+        if not self.scene.soft_bodies:
+            return None
+        spec = ClothSpec()
+        states = p.getJointStates(gripper.body_id, list(gripper.finger_links), physicsClientId=self._client)
+        if sum(s[0] for s in states) > spec.pinch_opening:
+            return None
+        frame = finger_frame(self._client, gripper.body_id, gripper.finger_links, gripper.ee_link)
+        names = {b.body_id: b.name for b in self.scene.bodies if b.link_index == -1}
+        for body in self.scene.soft_bodies:
+            if (
+                body in names
+                and nodes_between_fingers(cloth_nodes(self._client, body), frame, spec.pad_margin).size
+            ):
+                return names[body]
+        return None
 
     def _container_states(self) -> list[ContainerState]:
         """Open/closed from each container joint's position; open vessels are always open."""

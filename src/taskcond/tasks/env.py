@@ -46,10 +46,10 @@ WORKSPACE = (np.array([-0.4, -1.0, -0.2]), np.array([1.1, 1.0, 1.5]))
 PENETRATION = 0.03
 """Contact depth (m) counted as a simulation blow-up."""
 RENDER_SIZE = (320, 240)
-RENDER_EYE = (0.95, 0.85, 0.95)
-"""Position (m, world) of the :meth:`KitchenEnv.render` camera: in front of the table on the robot's left,
-high, so that neither arm hides the objects."""
-RENDER_TARGET = (0.32, 0.02, 0.08)
+RENDER_EYE = (0.95, -0.95, 1.05)
+"""Position (m, world) of the :meth:`KitchenEnv.render` camera: high in front of the table on the robot's
+right (beyond the microwave), facing the robots, so that no arm hides the objects and both arms show."""
+RENDER_TARGET = (0.32, 0.05, 0.05)
 """Point (m, world) the render camera looks at: the middle of the work area."""
 KINOVA_IK_TOLERANCE = 0.005
 """Metres the Kinova's IK answer may miss an action's target before the episode fails."""
@@ -214,7 +214,7 @@ class KitchenEnv(gym.Env):
             self.kinova.open_gripper()
 
     def render(self) -> np.ndarray:
-        """RGB image (240, 320, 3) uint8 from a fixed camera in front of the table on the robot's left,
+        """RGB image (240, 320, 3) uint8 from a fixed camera in front of the table on the robot's right,
         looking at the work area (:data:`RENDER_EYE`, :data:`RENDER_TARGET`; CPU renderer)."""
         w, h = RENDER_SIZE
         view = p.computeViewMatrix(RENDER_EYE, RENDER_TARGET, (0, 0, 1))

@@ -1,0 +1,157 @@
+"""The cloth, the Kinova in the scene, the fold measure and oracle, grasp cloth, and their bad inputs."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from numpy.testing import assert_allclose
+
+pytest.importorskip("pybullet")
+
+from taskcond.conditions import GripperState, Relation, SpatialRelation
+from taskcond.sim.cloth import ClothSpec, covered_layers, fold_measure
+from taskcond.sim.perception import Perception, PerceptionConfig
+from taskcond.sim.scene import KINOVA_GRIPPER
+from taskcond.tasks.fold import fold_trajectory
+from taskcond.tasks.oracle import run_episode
+from taskcond.tasks.registry import make
+
+pytestmark = pytest.mark.sim
+
+
+def _flat(spec: ClothSpec) -> np.ndarray:
+    return np.column_stack([spec.rest_nodes(), np.zeros(spec.resolution**2)])
+
+
+def _folded(spec: ClothSpec, gap: float) -> np.ndarray:
+    """The flat cloth with its -x half mirrored onto the +x half, ``gap`` m higher."""
+    nodes = _flat(spec)
+    moved = nodes[:, 0] < 0
+    nodes[moved, 0] *= -1
+    nodes[moved, 2] = gap
+    return nodes
+
+
+def test_fold_measure_of_a_flat_and_an_ideal_fold():
+    spec = ClothSpec(size=0.2, resolution=11)
+    flat = fold_measure(_flat(spec), spec, "-x", "+x", cell=0.002)
+    assert_allclose(flat.double_fraction, 0.0)
+    assert_allclose(flat.edge_distance, 0.2)
+    ideal = fold_measure(_folded(spec, 0.004), spec, "-x", "+x", cell=0.002)
+    assert_allclose(ideal.double_fraction, 1.0, atol=0.05)
+    assert_allclose(ideal.edge_distance, 0.004)
+    assert_allclose(ideal.max_height, 0.004)
+
+
+def test_covered_layers_counts_each_layer_once():
+    spec = ClothSpec(size=0.1, resolution=5)
+    counts, area = covered_layers(_flat(spec), spec.triangles(), 0.01)
+    assert counts.shape == (10, 10)
+    assert_allclose(area, 1e-4)
+    assert np.all(counts == 1)  # cell centres never lie on a shared triangle edge here
+
+
+def test_cloth_spec_rejects_bad_values():
+    with pytest.raises(ValueError, match="at least 3 nodes per edge"):
+        ClothSpec(resolution=2)
+    with pytest.raises(ValueError, match="unknown cloth edge 'x'"):
+        ClothSpec().edge("x")
+
+
+def test_single_arm_tasks_have_no_kinova_or_cloth():
+    env = make("grasp-bottle", seed=0)
+    try:
+        assert env.kinova is None and env.scene.cloth is None and env.scene.grips is None
+        assert [g.name for g in env.scene.description().grippers] == ["gripper"]
+        assert env.action_space.shape == (8,)
+        env.reset()
+        with pytest.raises(ValueError, match=r"action must have shape \(8,\) or \(7,\)"):
+            env.step(np.zeros(16))
+        # fold without a cloth: a one-line error, not a hang
+        with pytest.raises(ValueError, match="fold needs a cloth in the scene"):
+            fold_trajectory(env)
+        with pytest.raises(ValueError, match="the scene has no cloth"):
+            env.scene.cloth_nodes()
+    finally:
+        env.close()
+
+
+@pytest.fixture(scope="module")
+def fold_env():
+    env = make("fold-cloth", seed=0, render_mode="rgb_array")
+    yield env
+    env.close()
+
+
+def test_dual_arm_scene_names_both_grippers_and_reads_the_cloth(fold_env):
+    env = fold_env
+    env.reset(seed=0)
+    description = env.scene.description()
+    assert [g.name for g in description.grippers] == ["gripper", KINOVA_GRIPPER]
+    assert description.soft_bodies == [env.scene.cloth]
+    assert env.action_space.shape == (16,)
+    obs, _ = env.reset(seed=1)
+    spec = env.scene.config.cloth
+    assert obs["cloth_nodes"].shape == (spec.resolution**2, 3)
+    # flat on the table, centred near its nominal place
+    assert_allclose(obs["cloth_nodes"][:, 2], spec.collision_margin, atol=0.002)
+    assert_allclose(obs["cloth_nodes"][:, :2].mean(axis=0), env.scene.config.cloth_center, atol=0.03)
+    assert_allclose(
+        obs["kinova_ee_position"],
+        env.kinova.forward_kinematics(env.kinova.joint_positions())[:3, 3],
+        atol=1e-4,
+    )
+    # the Kinova stands on the Franka's left, clear of the single-arm work area
+    assert env.kinova.base_position[1] > 0.5
+    # the spatula put on the cloth: the relation in perception; both grippers free
+    env.scene.place("spatula", env.scene.config.cloth_center, 0.0)
+    env.settle(0.2)
+    info = Perception(description, PerceptionConfig(check_visibility=False)).observe(0)
+    assert SpatialRelation("spatula", Relation.ABOVE, "cloth") in info.predicates
+    assert {GripperState(None), GripperState(None, KINOVA_GRIPPER)} <= info.predicates
+    lo, hi = info.boxes["cloth"].lower, info.boxes["cloth"].upper
+    assert_allclose(hi[:2] - lo[:2], [spec.size, spec.size], atol=0.02)
+
+
+def test_kinova_target_out_of_reach_fails_the_episode_with_its_reason(fold_env):
+    env = fold_env
+    env.reset(seed=0)
+    franka = np.concatenate([env.robot.ee_pose().position, env.robot.ee_pose().orientation, [0.0]])
+    kinova = np.array([2.0, 2.0, 0.5, 1.0, 0.0, 0.0, 0.0, 0.0])
+    _, _, terminated, _, info = env.step(np.concatenate([franka, kinova]))
+    assert terminated
+    assert info["failure"] == "kinova_unreachable"
+    assert "beyond its reach" in info["failure_detail"]
+
+
+def test_fold_oracle_folds_the_cloth_with_both_arms(fold_env):
+    env = fold_env
+    ok, reason, trajectory, _steps = run_episode(env, 3)
+    assert (ok, reason) == (True, None)
+    assert trajectory.action(0).shape == (16,)
+    assert env.scene.grips.anchors == {}  # both let go
+    frame = env.render()
+    assert frame.shape == (240, 320, 3)
+
+
+def test_grasp_cloth_anchors_only_a_closed_gripper():
+    env = make("grasp-cloth", seed=0)
+    try:
+        env.reset()
+        pose = env.robot.ee_pose()
+        open_action = np.concatenate([pose.position, pose.orientation, [0.0]])
+        closed_action = open_action.copy()
+        closed_action[7] = 1.0
+        for _ in range(15):  # closed in the air, far from the cloth: no anchor
+            env.step(closed_action)
+        assert env.scene.grips.anchors == {}
+        assert not env.truth.grasping("cloth")
+        ok, reason, _, _ = run_episode(env, 0)
+        assert (ok, reason) == (True, None)
+        assert env.truth.holds(GripperState("cloth"))
+        info = Perception(env.scene.description(), PerceptionConfig(check_visibility=False)).observe(0)
+        assert GripperState("cloth") in info.predicates
+        env.step(open_action)  # opening lets go
+        assert env.scene.grips.anchors == {}
+    finally:
+        env.close()
