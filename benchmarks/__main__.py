@@ -26,6 +26,7 @@ def main() -> int:
         ["bench_kinova.py"] + (["--targets", "50"] if args.quick else []),
         ["bench_perception.py"] + (["--scenes", "5", "--noise-seeds", "10"] if args.quick else []),
         ["bench_sim.py", "--episodes", "5" if args.quick else "100"],
+        ["bench_cloth.py"] + (["--fold-episodes", "3", "--lht4-episodes", "2"] if args.quick else []),
         ["bench_exec.py", "--episodes", "2" if args.quick else "10"],
     ]
     failed = []
