@@ -96,7 +96,10 @@ class KitchenWorld:
         self._owner = _link_owners(description)
         self._rng = np.random.default_rng(seed)
         self._objects = tuple(b.name for b in description.bodies if b.kind != "robot")
-        self._free = tuple(env.scene.free_objects)
+        self._free = (
+            *env.scene.free_objects,
+            *(("cloth",) if getattr(env.scene, "cloth", None) is not None else ()),
+        )
         self._joints = tuple(env.scene.joints)
         self._interiors = tuple(env.scene.interiors)
         self.env_seconds = 0.0
