@@ -3,8 +3,13 @@
 Measures, in one run: assembling and verifying the GGUF (first use), loading the model, the time per whole
 task condition (both chats) uncached for generation and for generalization (leave-one-out, chain-of-thought
 prompt), and the time per condition answered from the on-disk response cache. Prints a markdown table.
+With ``--accuracy`` it instead runs the Table II protocol (``taskcond eval conditions``) uncached with
+generator settings the command line does not expose (prompt version, example order), printing every
+wrong condition beside its reference.
 
     .venv/bin/python benchmarks/bench_llm.py [--model qwen2.5-coder-1.5b] [--repeats 3]
+    .venv/bin/python benchmarks/bench_llm.py --accuracy [--prompt-version v1] [--example-order similar]
+        [--samples 1] [--trials 3] [--mode generation|generalization] [--primitive ID ...]
 """
 
 from __future__ import annotations
@@ -15,7 +20,9 @@ import tempfile
 import time
 from pathlib import Path
 
-from taskcond.generator import ConditionGenerator
+from taskcond.evaluation import evaluate_conditions
+from taskcond.examples import reference_condition
+from taskcond.generator import PROMPT_VERSION, ConditionGenerator
 from taskcond.llm.cache import CachedBackend
 from taskcond.llm.embedded import EmbeddedBackend
 from taskcond.llm.models import DEFAULT_EMBEDDED_MODEL, get_embedded_model, model_path
@@ -35,11 +42,65 @@ TASKS = [
 ]
 
 
+def accuracy(args: argparse.Namespace) -> None:
+    """The Table II protocol, uncached, with the given generator settings; wrong answers printed."""
+    gen = ConditionGenerator(
+        EmbeddedBackend(args.model),
+        samples=args.samples,
+        prompt_version=args.prompt_version,
+        example_order=args.example_order,
+    )
+    results = []
+    generate = gen.generate
+
+    def recording(*a, **kw):
+        results.append(generate(*a, **kw))
+        return results[-1]
+
+    gen.generate = recording  # type: ignore[method-assign]
+
+    def progress(o) -> None:
+        line = f"{'ok ' if o.correct else 'BAD'} {o.mode[:3]} {o.task} {o.seconds:.1f} s"
+        if o.error:
+            line += f" error: {o.error[:160]}"
+        elif not o.correct:
+            got = results[-1].condition
+            ref = reference_condition(parse_task(o.task))
+            line += f"\n    got {got.to_json()}\n    ref {ref.to_json()}"
+        print(line, flush=True)
+
+    start = time.perf_counter()
+    result = evaluate_conditions(
+        gen,
+        trials=args.trials,
+        primitives=args.primitive,
+        modes=args.mode or ("generation", "generalization"),
+        progress=progress,
+    )
+    print(
+        f"\nprompts {args.prompt_version}, order {args.example_order}, samples {args.samples}, "
+        f"{time.perf_counter() - start:.0f} s\n"
+    )
+    print(result.table())
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--model", default=DEFAULT_EMBEDDED_MODEL, help="embedded model name")
     ap.add_argument("--repeats", type=int, default=3, help="cached-lookup repetitions per task")
+    ap.add_argument("--accuracy", action="store_true", help="measure accuracy (Table II) instead of speed")
+    ap.add_argument("--prompt-version", default=PROMPT_VERSION, help="prompt directory (accuracy)")
+    ap.add_argument("--example-order", default=ConditionGenerator.example_order, help="registry or similar")
+    ap.add_argument("--samples", type=int, default=1, help="self-consistency samples per chat (accuracy)")
+    ap.add_argument("--trials", type=int, default=3, help="trials per primitive and mode (accuracy)")
+    ap.add_argument(
+        "--mode", action="append", choices=["generation", "generalization"], help="only this mode"
+    )
+    ap.add_argument("--primitive", action="append", help="only this primitive (repeatable)")
     args = ap.parse_args()
+    if args.accuracy:
+        accuracy(args)
+        return
 
     spec = get_embedded_model(args.model)
     with tempfile.TemporaryDirectory() as tmp:

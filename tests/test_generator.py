@@ -188,3 +188,28 @@ def test_embedded_generation_of_the_papers_listing_1(embedded_backend):
     result = ConditionGenerator(embedded_backend).generate("move bottle into box")
     assert result.mode == "generation"
     assert result.condition.matches(reference_condition(parse_task("move bottle into box")))
+
+
+def test_similar_order_puts_the_most_alike_examples_next_to_the_question():
+    block = examples_block("spatial", nearest=PRIMITIVES["move_into"], order_seed=3)
+    names = [line for line in block.splitlines() if line.startswith("Task name:")]
+    assert names[-1] == "Task name: move A into B"  # generation: the task's own example is nearest
+    loo = examples_block("state", exclude=["move_into"], nearest=PRIMITIVES["move_into"], order_seed=3)
+    names = [line.removeprefix("Task name: ") for line in loo.splitlines() if line.startswith("Task name:")]
+    assert sorted(names[-2:]) == ["move A in front of B", "move A on top of B"]
+    assert names[-3] == "move A to position"
+    assert sorted(loo.split("\n\n")) == sorted(examples_block("state", exclude=["move_into"]).split("\n\n"))
+
+
+def test_prompt_versions_are_selectable_and_v2_keeps_the_papers_parts():
+    task = parse_task("open top drawer")
+    v1 = ConditionGenerator(Replay([])).prompt("state", task, exclude=["open"])
+    v2 = ConditionGenerator(Replay([]), prompt_version="v2").prompt("state", task, exclude=["open"])
+    assert v1 != v2
+    for prompt in (v1, v2):
+        assert "gripper grasping/not grasping, container open/closed" in prompt
+        assert "Remember to strictly follow the examples' format." in prompt
+        assert prompt.rstrip().endswith("Q: Task name: open A")
+        assert prompt.count("Task name: open A") == 1  # the question only
+    with pytest.raises(ValueError, match="no prompt 'state' in prompt version 'v0'"):
+        ConditionGenerator(Replay([]), prompt_version="v0").prompt("state", task)

@@ -37,11 +37,12 @@ from taskcond.conditions import (
 )
 from taskcond.examples import letter_example
 from taskcond.llm.base import ChatBackend, ChatMessage, ChatRequest, LLMError, Sampling
-from taskcond.primitives import PRIMITIVES, ParsedTask, get_primitive, parse_task
+from taskcond.primitives import LETTERS, PRIMITIVES, ParsedTask, Primitive, get_primitive, parse_task
 
 Chat = Literal["spatial", "state"]
 CHATS: tuple[Chat, ...] = ("spatial", "state")
 PROMPT_VERSION = "v1"
+ExampleOrder = Literal["registry", "similar"]
 GrammarUse = Literal["always", "fallback", "never"]
 STOP = ("\n\n",)
 """An answer has no blank line; one marks the model starting another example."""
@@ -57,14 +58,33 @@ def load_prompt(name: str, version: str = PROMPT_VERSION) -> Template:
         raise ValueError(f"no prompt {name!r} in prompt version {version!r}") from None
 
 
-def examples_block(chat: Chat, exclude: Iterable[str] = (), order_seed: int | None = None) -> str:
+def similarity(a: Primitive, b: Primitive) -> tuple[int, int]:
+    """How alike two primitives' task names are, from their form only: the same number of objects first,
+    then the number of words their patterns share (letters excluded)."""
+
+    def words(p: Primitive) -> set[str]:
+        return {w for w in p.pattern.split() if w not in set(LETTERS)}
+
+    return (int(a.n_objects == b.n_objects), len(words(a) & words(b)))
+
+
+def examples_block(
+    chat: Chat,
+    exclude: Iterable[str] = (),
+    order_seed: int | None = None,
+    nearest: Primitive | None = None,
+) -> str:
     """The examples part of a chat's prompt: every primitive's letter example not in ``exclude``, cut to
     the chat's half of the condition, in registry order (so prompts share a long cacheable prefix).
-    ``order_seed`` shuffles their order (a trial of the evaluation)."""
+    ``order_seed`` shuffles their order (a trial of the evaluation). With ``nearest`` (the question's
+    primitive), the examples are then stably sorted by :func:`similarity` to it, the most similar last,
+    next to the question."""
     excluded = set(exclude)
     ids = [pid for pid in PRIMITIVES if pid not in excluded]
     if order_seed is not None:
         random.Random(order_seed).shuffle(ids)
+    if nearest is not None:
+        ids.sort(key=lambda pid: similarity(PRIMITIVES[pid], nearest))
     spatial = chat == "spatial"
     return "\n\n".join(letter_example(pid).only(spatial).to_text(include_collisions=spatial) for pid in ids)
 
@@ -217,6 +237,9 @@ class ConditionGenerator:
             grammar sampling costs ~80 ms per token on 2 cores, four times the free decoding; ``"always"``
             constrains every request; ``"never"`` relies on the validator alone.
         prompt_version: directory of the prompt files.
+        example_order: ``"registry"`` (the registry's order, shuffled by the trial's ``order_seed``) or
+            ``"similar"`` (then the examples most similar to the task's primitive last, next to the
+            question; see :func:`similarity`).
     """
 
     backend: ChatBackend
@@ -225,6 +248,7 @@ class ConditionGenerator:
     temperature: float = 0.7
     grammar: GrammarUse = "fallback"
     prompt_version: str = PROMPT_VERSION
+    example_order: ExampleOrder = "registry"
 
     def prompt(
         self, chat: Chat, task: ParsedTask, exclude: Iterable[str] = (), order_seed: int | None = None
@@ -234,7 +258,10 @@ class ConditionGenerator:
         excluded = set(exclude)
         name = f"{chat}_cot" if task.primitive.id in excluded else chat
         return load_prompt(name, self.prompt_version).substitute(
-            examples=examples_block(chat, excluded, order_seed), task=task.letter_name
+            examples=examples_block(
+                chat, excluded, order_seed, task.primitive if self.example_order == "similar" else None
+            ),
+            task=task.letter_name,
         )
 
     def _chat(
@@ -329,4 +356,5 @@ __all__ = [
     "examples_block",
     "load_prompt",
     "parse_answer",
+    "similarity",
 ]
