@@ -90,6 +90,7 @@ class KitchenEnv(gym.Env):
         self.substeps = PHYSICS_HZ // control_hz
         self.dt = self.substeps / PHYSICS_HZ
         self.object_names = self.scene.free_objects
+        self._free_ids = [self.scene.bodies[n] for n in self.object_names]
         self.target = np.zeros(3)
         self.steps = 0
         self.failure: str | None = None
@@ -286,14 +287,14 @@ class KitchenEnv(gym.Env):
         client = self.scene.client
         if not np.all(np.isfinite(self.robot.joint_positions())):
             return "nan_state"
-        for name in self.object_names:
-            pos = np.array(
-                p.getBasePositionAndOrientation(self.scene.bodies[name], physicsClientId=client)[0]
-            )
-            if not np.all(np.isfinite(pos)):
-                return "nan_state"
-            if np.any(pos < WORKSPACE[0]) or np.any(pos > WORKSPACE[1]):
-                return f"{name}_left_workspace"
+        positions = np.array(
+            [p.getBasePositionAndOrientation(body, physicsClientId=client)[0] for body in self._free_ids]
+        ).reshape(-1, 3)
+        if not np.isfinite(positions).all():
+            return "nan_state"
+        outside = ((positions < WORKSPACE[0]) | (positions > WORKSPACE[1])).any(axis=1)
+        if outside.any():
+            return f"{self.object_names[int(np.argmax(outside))]}_left_workspace"
         if self.kinova is not None and not np.all(np.isfinite(self.kinova.joint_positions())):
             return "nan_state"
         if self.scene.cloth is not None:
