@@ -60,13 +60,14 @@ def accuracy(args: argparse.Namespace) -> None:
     gen.generate = recording  # type: ignore[method-assign]
 
     def progress(o) -> None:
-        line = f"{'ok ' if o.correct else 'BAD'} {o.mode[:3]} {o.task} {o.seconds:.1f} s"
+        mode = "gen" if o.mode == "generation" else "loo"
+        line = f"{'ok ' if o.correct else 'BAD'} {mode} {o.task} {o.seconds:.1f} s"
         if o.error:
             line += f" error: {o.error[:160]}"
         elif not o.correct:
             got = results[-1].condition
             ref = reference_condition(parse_task(o.task))
-            line += f"\n    got {got.to_json()}\n    ref {ref.to_json()}"
+            line += f"\n    got {' '.join(got.to_json().split())}\n    ref {' '.join(ref.to_json().split())}"
         print(line, flush=True)
 
     start = time.perf_counter()

@@ -213,3 +213,23 @@ def test_prompt_versions_are_selectable_and_v2_keeps_the_papers_parts():
         assert prompt.count("Task name: open A") == 1  # the question only
     with pytest.raises(ValueError, match="no prompt 'state' in prompt version 'v0'"):
         ConditionGenerator(Replay([]), prompt_version="v0").prompt("state", task)
+
+
+def test_prompt_version_v3_asks_left_out_primitives_like_seen_ones():
+    """v3: the plain Listing 2/3 prompt also when the task's primitive is left out (no CoT text)."""
+    task = parse_task("move bottle into box")
+    gen = ConditionGenerator(Replay([]), prompt_version="v3")
+    for chat in ("spatial", "state"):
+        loo = gen.prompt(chat, task, exclude=["move_into"])
+        assert "First, decide which objects are relevant" not in loo
+        assert loo.count("Task name: move A into B") == 1
+        assert loo == ConditionGenerator(Replay([])).prompt(chat, task).replace(
+            letter_example_text(chat, "move_into") + "\n\n", ""
+        )
+
+
+def letter_example_text(chat, pid):
+    from taskcond.examples import letter_example
+
+    spatial = chat == "spatial"
+    return letter_example(pid).only(spatial).to_text(include_collisions=spatial)
