@@ -34,6 +34,13 @@ runner = CliRunner()
             "error: unknown object(s) 'unicorn' for primitive 'grasp'; valid: bottle",
         ),
         (["oracle", "grasp-bottle", "--video", "x.avi"], "error: --video x.avi: use a .mp4 or .gif"),
+        (
+            ["conditions", "open box", "--prompt-version", "v9"],
+            "error: --prompt-version 'v9': use one of v1, v2, v3",
+        ),
+        (["run", "LHT1", "--method", "magic"], "error: --method 'magic': use one of llm, env, none"),
+        (["learn", "--task", "grasp-unicorn"], "error: unknown object(s) 'unicorn' for primitive 'grasp'"),
+        (["eval", "long-horizon", "--task", "LHT9"], "error: 'LHT9' is not a long-horizon task"),
     ],
 )
 def test_bad_input_is_a_one_line_error_with_exit_code_2(args, message, monkeypatch, tmp_path):

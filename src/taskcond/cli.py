@@ -46,6 +46,14 @@ NoCacheOption = Annotated[
     bool, typer.Option("--no-cache", help="Do not read or write the on-disk response cache.")
 ]
 JsonOption = Annotated[bool, typer.Option("--json", help="Print JSON instead of text.")]
+PromptVersionOption = Annotated[
+    str,
+    typer.Option(
+        "--prompt-version",
+        help="Prompt set: v1 (the paper's Listings 2-4, default), v2 (v1 with the definitions of pre/post-"
+        "conditions and an analogy step in the chain-of-thought prompt), v3 (no chain-of-thought text).",
+    ),
+]
 
 
 def fail(message: str) -> NoReturn:
@@ -53,16 +61,22 @@ def fail(message: str) -> NoReturn:
     raise typer.Exit(2)
 
 
-def _generator(llm: str | None, samples: int, no_cache: bool, grammar: str = "fallback"):
+def _generator(
+    llm: str | None, samples: int, no_cache: bool, grammar: str = "fallback", prompt_version: str = "v1"
+):
     from dataclasses import replace
 
-    from taskcond.generator import ConditionGenerator
+    from taskcond.generator import ConditionGenerator, prompt_versions
     from taskcond.llm.config import LLMConfig, make_backend
 
+    if prompt_version not in prompt_versions():
+        fail(f"--prompt-version {prompt_version!r}: use one of {', '.join(prompt_versions())}")
     config = LLMConfig.load(llm)
     if no_cache:
         config = replace(config, cache=False)
-    return ConditionGenerator(make_backend(config), samples=samples, grammar=grammar)
+    return ConditionGenerator(
+        make_backend(config), samples=samples, grammar=grammar, prompt_version=prompt_version
+    )
 
 
 @app.command()
@@ -86,12 +100,13 @@ def conditions(
         ),
     ] = "fallback",
     seed: Annotated[int, typer.Option("--seed", help="Sampling seed.")] = 0,
+    prompt_version: PromptVersionOption = "v1",
 ) -> None:
     """Generate the task condition of TASK with the LLM (paper §III-B/C) and print it."""
     try:
         if grammar not in ("fallback", "always", "never"):
             fail(f"--grammar {grammar!r}: use fallback, always or never")
-        gen = _generator(llm, samples, no_cache, grammar=grammar)
+        gen = _generator(llm, samples, no_cache, grammar=grammar, prompt_version=prompt_version)
         result = gen.generate(task, exclude=exclude or (), seed=seed)
     except (TaskNameError, ConditionError, LLMError) as exc:
         fail(str(exc))
@@ -189,6 +204,7 @@ def eval_conditions(
         list[str] | None,
         typer.Option("--primitive", help=f"Only these primitives (repeatable): {', '.join(PRIMITIVES)}."),
     ] = None,
+    prompt_version: PromptVersionOption = "v1",
 ) -> None:
     """Generation (all examples) and generalization (leave-one-out) accuracy per primitive (Table II)."""
     from tqdm import tqdm
@@ -198,7 +214,7 @@ def eval_conditions(
 
     try:
         pids = [get_primitive(p).id for p in primitive] if primitive else list(PRIMITIVES)
-        gen = _generator(llm, samples, no_cache)
+        gen = _generator(llm, samples, no_cache, prompt_version=prompt_version)
     except (TaskNameError, LLMError) as exc:
         fail(str(exc))
     bar = tqdm(total=2 * trials * len(pids), desc="conditions", unit="cond", file=sys.stderr, disable=None)

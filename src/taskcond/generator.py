@@ -49,6 +49,12 @@ STOP = ("\n\n",)
 
 
 @cache
+def prompt_versions() -> list[str]:
+    """The prompt versions shipped in the package (directories of ``taskcond/prompts``)."""
+    root = resources.files("taskcond").joinpath("prompts")
+    return sorted(entry.name for entry in root.iterdir() if entry.is_dir() and not entry.name.startswith("_"))
+
+
 def load_prompt(name: str, version: str = PROMPT_VERSION) -> Template:
     """A prompt template from ``taskcond/prompts/<version>/<name>.txt``."""
     path = resources.files("taskcond").joinpath(f"prompts/{version}/{name}.txt")
@@ -356,5 +362,6 @@ __all__ = [
     "examples_block",
     "load_prompt",
     "parse_answer",
+    "prompt_versions",
     "similarity",
 ]
