@@ -176,6 +176,7 @@ class KitchenScene:
             p.configureDebugVisualizer(p.COV_ENABLE_GUI, 0, physicsClientId=self.client)
         cfg = self.config
         self.bodies: dict[str, int] = {}
+        self._inertial_inverse: dict[int, tuple] = {}
         self.links: dict[str, int] = {}
         self.interiors: dict[str, Interior] = {}
         self.joints: dict[str, ContainerJoint] = {}
@@ -339,9 +340,11 @@ class KitchenScene:
         body, link = self.bodies[name], self.links.get(name, -1)
         if link < 0:
             pos, orn = p.getBasePositionAndOrientation(body, physicsClientId=self.client)
-            # base position is the centre of mass; convert to the URDF link frame
-            local = p.getDynamicsInfo(body, -1, physicsClientId=self.client)[3]
-            inv = p.invertTransform(local, (0, 0, 0, 1))
+            # base position is the centre of mass; convert to the URDF link frame (constant per body)
+            inv = self._inertial_inverse.get(body)
+            if inv is None:
+                local = p.getDynamicsInfo(body, -1, physicsClientId=self.client)[3]
+                inv = self._inertial_inverse[body] = p.invertTransform(local, (0, 0, 0, 1))
             pos, orn = p.multiplyTransforms(pos, orn, inv[0], inv[1])
         else:
             state = p.getLinkState(body, link, computeForwardKinematics=True, physicsClientId=self.client)
