@@ -18,7 +18,6 @@ from taskcond.conditions import Collision
 from taskcond.execution.skills import Demonstration, SkillLibrary, learn_skill, target_object
 from taskcond.execution.sources import condition_from_environment
 from taskcond.execution.world import Observation, Touch
-from taskcond.sim.description import SceneDescription
 from taskcond.sim.perception import EnvironmentInfo, Perception, PerceptionConfig
 from taskcond.sim.recording import VideoRecorder
 from taskcond.tasks.base import PrimitiveTask, Task, TaskInfo
@@ -35,30 +34,6 @@ CONTACT_DISTANCE = 0.002
 contact-breaking threshold); as :class:`~taskcond.sim.perception.RelationThresholds`."""
 VIDEO_EVERY = 2
 """Record every n-th control step."""
-
-
-def _link_owners(description: SceneDescription) -> dict[tuple[int, int], str]:
-    """Name of each (body, link) of the scene: the nearest named ancestor-or-self link (a drawer's handle
-    is the drawer, a lid the box); every link of an arm is its gripper. The same ownership as
-    :class:`~taskcond.sim.perception.Perception` uses for contacts."""
-    client = description.client
-    named = {(b.body_id, b.link_index): b.name for b in description.bodies}
-    owners: dict[tuple[int, int], str] = {}
-    for body in {b.body_id for b in description.bodies}:
-        parents = {
-            j: p.getJointInfo(body, j, physicsClientId=client)[16]
-            for j in range(p.getNumJoints(body, physicsClientId=client))
-        }
-        for link in (-1, *parents):
-            ancestor = link
-            while (body, ancestor) not in named and ancestor != -1:
-                ancestor = parents[ancestor]
-            if (body, ancestor) in named:
-                owners[(body, link)] = named[(body, ancestor)]
-    for gripper in description.grippers:
-        for link in range(-1, p.getNumJoints(gripper.body_id, physicsClientId=client)):
-            owners[(gripper.body_id, link)] = gripper.name
-    return owners
 
 
 def _observation(info: EnvironmentInfo) -> Observation:
@@ -93,7 +68,7 @@ class KitchenWorld:
         self.perception = Perception(
             description, PerceptionConfig(noise_sigma=noise_sigma, check_visibility=False)
         )
-        self._owner = _link_owners(description)
+        self._owner = self.perception.owners
         self._rng = np.random.default_rng(seed)
         self._objects = tuple(b.name for b in description.bodies if b.kind != "robot")
         self._free = (
@@ -128,8 +103,8 @@ class KitchenWorld:
         client = self.env.scene.client
         points = list(p.getContactPoints(bodyA=robot, physicsClientId=client))
         touched = {pt[2] for pt in points} - {robot}
-        for body in touched:
-            points += p.getContactPoints(bodyA=body, physicsClientId=client)
+        for body in touched:  # its other contacts; those with the arm are already in ``points``
+            points += [pt for pt in p.getContactPoints(bodyA=body, physicsClientId=client) if pt[2] != robot]
         merged: dict[frozenset[str], list[np.ndarray]] = {}
         names: dict[frozenset[str], tuple[str, str]] = {}
         for pt in points:

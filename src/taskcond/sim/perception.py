@@ -341,6 +341,12 @@ class Perception:
         self._vessels = [b.name for b in scene.bodies if b.kind == "container" and b.name not in jointed]
 
     # ----------------------------------------------------------------------------------------- public
+    @property
+    def owners(self) -> Mapping[tuple[int, int], str]:
+        """The name owning each (PyBullet body, link) of the scene, as used for contacts (module doc:
+        nearest named ancestor-or-self link; every link of an arm is its gripper)."""
+        return self._owner
+
     def observe(self, rng: np.random.Generator | int | None = None) -> EnvironmentInfo:
         """Acquire the environment information of the current simulation state.
 
