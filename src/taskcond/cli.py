@@ -257,18 +257,16 @@ def _sim_import() -> None:
 
 
 def _library(skills: Path | None):
-    from taskcond.execution.runner import load_library
+    from taskcond.execution.runner import default_library_dir, load_library
     from taskcond.execution.skills import SkillError
 
     def told(task_id: str, ok: bool) -> None:
         typer.echo(f"  demonstrated {task_id}{'' if ok else ' (oracle failed; kept anyway)'}", err=True)
 
+    directory = skills or default_library_dir()
+    if not (directory / "library.json").exists():
+        typer.echo(f"learning the skill library into {directory} (once, about a minute)", err=True)
     try:
-        from taskcond.execution.runner import default_library_dir
-
-        directory = skills or default_library_dir()
-        if not (directory / "library.json").exists():
-            typer.echo(f"learning the skill library into {directory} (once, about a minute)", err=True)
         return load_library(directory, progress=told)
     except SkillError as exc:
         fail(str(exc))
@@ -433,6 +431,7 @@ def _eval_execution(
         jobs_for,
         make_source,
         plan_run,
+        read_results,
         summarize,
     )
 
@@ -459,7 +458,7 @@ def _eval_execution(
     out = out or Path("runs") / f"eval-{kind}.jsonl"
     workers = workers or cpu_count()
     bar = tqdm(total=len(jobs), desc=kind, unit="episode", file=sys.stderr, disable=None)
-    done = {(r["task"], r["method"], r["seed"]) for r in _read(out)}
+    done = {(r["task"], r["method"], r["seed"]) for r in read_results(out)}
     bar.update(sum(j.key in done for j in jobs))
     records = evaluate(
         jobs, out, skills or default_library_dir(), workers, llm, noise, progress=lambda _r: bar.update()
@@ -479,12 +478,6 @@ def _eval_execution(
             f"\n{len(records)} episodes in {out}; {60.0 / (sum(walls) / len(walls)):.1f} episodes per minute "
             "per core (mean episode wall time)"
         )
-
-
-def _read(path: Path) -> list[dict]:
-    from taskcond.execution.runner import read_results
-
-    return read_results(path)
 
 
 def _eval_command(kind: str):

@@ -39,6 +39,7 @@ gets a zero forcing term, exactly as Eq. 2 prescribes.
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 from collections import deque
@@ -273,19 +274,7 @@ class DMPParameters:
         """
         dims = np.asarray(dims, dtype=bool) & self.goal_scaled
         weights = np.where(dims[:, None], self.weights * (self.goal - self.y0)[:, None], self.weights)
-        return DMPParameters(
-            weights=weights,
-            centres=self.centres,
-            widths=self.widths,
-            alpha_y=self.alpha_y,
-            beta_y=self.beta_y,
-            alpha_x=self.alpha_x,
-            x0=self.x0,
-            tau=self.tau,
-            y0=self.y0,
-            goal=self.goal,
-            goal_scaled=self.goal_scaled & ~dims,
-        )
+        return dataclasses.replace(self, weights=weights, goal_scaled=self.goal_scaled & ~dims)
 
 
 def default_basis(

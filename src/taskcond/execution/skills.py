@@ -140,8 +140,6 @@ class Skill:
         task_name: the demonstrated task, e.g. ``"grasp bottle"``.
         task_id: its suite id.
         primitive: primitive id.
-        target_role: which object of the task name anchors the approach: its index among the task's
-            objects, ``-1`` for the move primitive's goal position, None for none.
         segments: the DMP pieces in order.
         condition: the FromEnv task condition of the demonstration, or None.
     """
@@ -149,7 +147,6 @@ class Skill:
     task_name: str
     task_id: str
     primitive: str
-    target_role: int | None
     segments: tuple[Segment, ...]
     condition: TaskCondition | None = None
 
@@ -236,7 +233,6 @@ def learn_skill(demo: Demonstration) -> Skill:
         task_name=task.name,
         task_id=demo.task_id,
         primitive=task.primitive.id,
-        target_role=TARGET_ROLE.get(task.primitive.id),
         segments=tuple(segments),
         condition=demo.condition,
     )
@@ -319,7 +315,6 @@ class SkillLibrary:
                     "task_name": skill.task_name,
                     "task_id": skill.task_id,
                     "primitive": skill.primitive,
-                    "target_role": skill.target_role,
                     "segments": pieces,
                     "condition": None if skill.condition is None else skill.condition.to_dict(),
                 }
@@ -370,7 +365,6 @@ class SkillLibrary:
                         task_name=entry["task_name"],
                         task_id=entry["task_id"],
                         primitive=entry["primitive"],
-                        target_role=entry["target_role"],
                         segments=tuple(segments),
                         condition=None if cond is None else TaskCondition.from_dict(cond),
                     )

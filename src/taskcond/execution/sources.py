@@ -57,7 +57,7 @@ def condition_from_environment(
     collisions = sorted({c for c in touched if c.a in relevant or c.b in relevant}, key=str)
     return TaskCondition(
         task_name=task.name,
-        relevant_objects=[*task.objects, *grippers],
+        relevant_objects=relevant,
         pre_conditions=pre,
         post_conditions=post,
         collisions=collisions,
