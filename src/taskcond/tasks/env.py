@@ -14,6 +14,15 @@ order of :attr:`KitchenEnv.object_names`, ``container_open`` (4,) open fractions
 ``None``), ``steps``. A simulation blow-up (NaN, an object leaving the workspace, deep interpenetration)
 terminates the episode with its reason.
 
+Episodes are independent: ``reset(seed=s)`` followed by the same actions gives the same trajectory, bit for
+bit, in a fresh environment and in one that has run other episodes. Bullet keeps state across a reset that
+no pose or velocity shows: persistent contact points (whose impulses warm-start the solver), the order of
+overlapping pairs, and sleeping (a free object asleep at the end of one episode stayed asleep, hovering
+where :meth:`~taskcond.sim.scene.KitchenScene.place` put it 0.5 mm above the counter). The client therefore
+orders pairs deterministically (``deterministicOverlappingPairs``), and every reset first parks the free
+objects far apart and out of reach with sleeping disabled and runs one physics step
+(:meth:`KitchenEnv._forget_contacts`), which drops their contacts and wakes them.
+
 Dual-arm tasks (the task's :meth:`~taskcond.tasks.base.Task.scene_config` adds the Kinova and the cloth):
 the action may be (16,): the Franka's (8,) action followed by the Kinova's (8,) in the same layout (tool
 centre point target, quaternion, gripper command); an (8,) or (7,) action moves the Franka only and the
@@ -53,6 +62,11 @@ RENDER_TARGET = (0.32, 0.05, 0.05)
 """Point (m, world) the render camera looks at: the middle of the work area."""
 KINOVA_IK_TOLERANCE = 0.005
 """Metres the Kinova's IK answer may miss an action's target before the episode fails."""
+PARKING = (100.0, 0.0, 100.0)
+"""World position (m) of the first free object parked at reset (:meth:`KitchenEnv._forget_contacts`); the
+others follow :data:`PARKING_SPACING` apart along +x, far from each other and from every other body."""
+PARKING_SPACING = 2.0
+"""Metres between parked free objects (every object is smaller than 0.5 m)."""
 
 
 class KitchenEnv(gym.Env):
@@ -83,6 +97,7 @@ class KitchenEnv(gym.Env):
         self.task = task
         self.render_mode = render_mode
         self.scene = KitchenScene(task.scene_config(config), gui=gui)
+        p.setPhysicsEngineParameter(deterministicOverlappingPairs=1, physicsClientId=self.scene.client)
         self.truth = GroundTruth(self.scene)
         self.robot = self.scene.robot
         self.kinova = self.scene.kinova
@@ -132,12 +147,13 @@ class KitchenEnv(gym.Env):
     def reset(
         self, *, seed: int | None = None, options: dict[str, Any] | None = None
     ) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
-        """Randomize the free objects' poses (seeded), close every container, put the arm home, then
-        apply the task's initial state."""
+        """Forget the previous episode's contacts (:meth:`_forget_contacts`), randomize the free objects'
+        poses (seeded), close every container, put the arm home, then apply the task's initial state."""
         if seed is None and self._seed is not None:
             seed, self._seed = self._seed, None
         super().reset(seed=seed)
         rng = self.np_random
+        self._forget_contacts()
         cfg = self.scene.config
         for name, (_, place) in cfg.free_objects.items():
             xy = np.array(place.xy) + rng.uniform(-cfg.position_noise, cfg.position_noise, 2)
@@ -233,6 +249,24 @@ class KitchenEnv(gym.Env):
         """Step the physics for ``seconds`` holding the current commands (reset time)."""
         for _ in range(round(seconds * PHYSICS_HZ)):
             p.stepSimulation(physicsClientId=self.scene.client)
+
+    def _forget_contacts(self) -> None:
+        """Drop the free objects' persistent contact points and sleeping state (reset time): park them
+        :data:`PARKING_SPACING` apart from :data:`PARKING`, out of contact with anything, and run one physics
+        step with sleeping disabled, which removes their contact pairs and zeroes their sleep timers; then
+        allow sleeping again. Everything the step moves is put in place by :meth:`reset` afterwards."""
+        client = self.scene.client
+        for k, body in enumerate(self._free_ids):
+            p.changeDynamics(
+                body, -1, activationState=p.ACTIVATION_STATE_DISABLE_SLEEPING, physicsClientId=client
+            )
+            position = (PARKING[0] + k * PARKING_SPACING, PARKING[1], PARKING[2])
+            p.resetBasePositionAndOrientation(body, position, (0, 0, 0, 1), physicsClientId=client)
+        p.stepSimulation(physicsClientId=client)
+        for body in self._free_ids:
+            p.changeDynamics(
+                body, -1, activationState=p.ACTIVATION_STATE_ENABLE_SLEEPING, physicsClientId=client
+            )
 
     def hold(self, name: str, lift: float, grasp: Any) -> None:
         """Reset-time set-up of a held object: lift ``name`` by ``lift`` m where it stands, put the open
