@@ -104,6 +104,46 @@ def test_approach_orientation_turns_from_the_start_to_the_demonstrated_one() -> 
     assert abs(middle @ start) < 0.999 and abs(middle @ demo) < 0.999
 
 
+def _two_arm_demo() -> Demonstration:
+    """Two arms demonstrating the same grasp side by side, 0.4 m apart in y, the second turned 90° about
+    z: positions (n, 6), orientations (n, 8)."""
+    one = _grasp_demo("fold cloth", target=(0.5, 0.1, 0.06))
+    apart = np.array([0.0, 0.4, 0.0])
+    turned = np.tile([0.0, 0.0, np.sqrt(0.5), np.sqrt(0.5)], (len(one.times), 1))
+    return Demonstration(
+        **{
+            **vars(one),
+            "positions": np.hstack([one.positions, one.positions + apart]),
+            "orientations": np.hstack([one.orientations, turned]),
+            "condition": None,
+        }
+    )
+
+
+def test_a_two_arm_skill_has_one_dmp_per_arm_dimension_and_a_goal_per_arm(tmp_path) -> None:
+    demo = _two_arm_demo()
+    skill = learn_skill(demo)
+    assert skill.arms == 2 and skill.segments[0].dmp.n_dims == 6
+    approach = skill.segments[0]
+    assert_allclose(approach.offset, [0, 0, 0.19, 0, 0.4, 0.19])
+    new_target = np.array([0.45, -0.2, 0.06])
+    goal = approach.goal(np.zeros(6), new_target)
+    assert_allclose(goal, [0.45, -0.2, 0.25, 0.45, 0.2, 0.25])
+    lift = skill.segments[-1]
+    assert_allclose(lift.goal(goal, new_target), goal + lift.dmp.goal - lift.dmp.y0)
+    quats = approach.orientation(np.array([0.0, 1.0]), np.concatenate([demo.orientations[0, :4]] * 2))
+    assert quats.shape == (2, 8)
+    assert abs(quats[1, 4:] @ demo.orientations[0, 4:]) == pytest.approx(1.0)  # arrives as demonstrated
+    assert abs(quats[0, 4:] @ demo.orientations[0, :4]) == pytest.approx(1.0)  # starts where it stood
+    library = SkillLibrary()
+    library.add(skill)
+    library.save(tmp_path)
+    loaded = SkillLibrary.load(tmp_path).lookup("fold cloth")
+    assert loaded.arms == 2
+    assert_allclose(loaded.segments[0].offset, approach.offset)
+    assert loaded.segments[0].orientations.shape[1] == 8
+
+
 def test_library_round_trip_and_lookup(tmp_path) -> None:
     library = SkillLibrary()
     near = learn_skill(_grasp_demo(start=(0.3, 0.0, 0.5)))

@@ -190,3 +190,22 @@ def test_lht1_with_embedded_llm_conditions(library, embedded_backend) -> None:
     result = run_episode(RunPlan("LHT1", "LHT1", tuple(plan_run("LHT1").steps)), "llm", 1000, library, source)
     assert result.success, (result.reason, [e["message"] for e in result.events][-6:])
     assert set(result.conditions) >= {"grasp bottle", "close box"}
+
+
+def test_fold_runs_both_arms_from_one_two_arm_skill(tmp_path) -> None:
+    """The dual-arm fold demonstration becomes one skill of 6-dimensional DMPs (both arms' positions);
+    executed from the cloth's perceived centre it folds the cloth with both arms. In the single-arm scene
+    the fold is refused with its reason."""
+    library = learn_library(tmp_path, ["fold-cloth"])
+    skill = library.skills["fold-cloth"]
+    assert skill.arms == 2 and skill.segments[0].dmp.n_dims == 6
+    result = run_episode(plan_run("fold-cloth"), "none", 1000, library, None, noise=0.0)
+    assert result.success, (result.reason, [e["message"] for e in result.events][-4:])
+    assert "skill fold-cloth" in result.events[1]["message"]
+    env = make("grasp-bottle")
+    try:
+        env.reset(seed=0)
+        refused = Executor(KitchenWorld(env), library, "none").run(["fold cloth"])
+    finally:
+        env.close()
+    assert refused.failure_kind == "bad_task" and "'cloth' not in the scene" in refused.failure

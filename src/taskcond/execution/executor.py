@@ -19,10 +19,14 @@ With conditions, every primitive is performed as
 2. *control with conditions* (Alg. 2, :meth:`Executor.control`): DMP rollouts towards the goal from the
    environment information; after every control step the contacts are compared with the condition's
    allowed collisions, and an unallowed one backs the rollout up :attr:`ExecutionConfig.backup_points`
-   points and moves the goal by ``goal − collision position`` (Alg. 2 lines 9–12). We keep the
-   horizontal part only and bound it by :attr:`ExecutionConfig.max_goal_shift` (the paper moves the goal
-   in 3-D without bound): a contact at a container's rim below the goal would otherwise lift the goal out
-   of the container the object is being lowered into;
+   points and moves the goal by ``goalPos − collision position`` (Alg. 2 lines 9–12), goalPos being the
+   target object's centre as in Alg. 2 line 3 (the end effector's goal is offset from it by the
+   demonstrated grasp, which would turn the shift sideways), or the arm's goal for a piece without a
+   target. We keep the horizontal part only and bound it by :attr:`ExecutionConfig.max_goal_shift` (the
+   paper moves the goal in 3-D without bound): a contact at a container's rim below the goal would
+   otherwise lift the goal out of the container the object is being lowered into. A pair of bodies
+   adjusts the goal once per rollout: a contact away from the goal (a rim crossed on the way) recurs
+   after every back-up, and moving the goal again each time would carry it away;
    Spatial relations of the gripper itself (``gripper in front of box``) are left to the motion: no
    primitive achieves them on their own;
 3. the post-conditions are checked; if some of its *effects* do not hold (post-conditions that are not
@@ -369,7 +373,13 @@ class Executor:
             skill = self.library.lookup(task, here - target if target is not None else here, here_q)
         except SkillError as exc:
             raise ExecutionError(str(exc), "no_skill") from None
-        checked = self._checked_bodies(obs)
+        arms = skill.arms
+        if arms > len(world.arms):
+            raise ExecutionError(
+                f"skill {skill.task_id} of {task!r} moves {arms} arms; this robot has {len(world.arms)}",
+                "no_skill",
+            )
+        checked = {o for g in world.arms[:arms] if (o := obs.grasped(g)) is not None}
         baseline = {t.collision for t in obs.touches}
         allowed = set(cond.collisions) if cond is not None else set()
         self._emit(
@@ -384,7 +394,7 @@ class Executor:
         for seg in skill.segments:
             if world.time > deadline:
                 raise ExecutionError(f"{task!r} ran past its time budget of {cfg.budget:.0f} s", "timeout")
-            start, start_q = world.ee_pose()
+            start, start_q = world.ee_pose(arms)
             goal = seg.goal(start, target)
             reason = world.reach_error(goal)
             if reason is not None:
@@ -411,12 +421,8 @@ class Executor:
                     continue
                 state = rollout.back_up(back)
                 k -= back
-                shift = goal - touch.position
-                shift[2] = 0.0
-                norm = float(np.linalg.norm(shift))
-                if norm > cfg.max_goal_shift:
-                    shift *= cfg.max_goal_shift / norm
-                goal = goal + shift
+                shift = self._goal_shift(touch, goal, target if seg.anchor == "target" else None)
+                goal = goal + np.tile(shift, arms)
                 rollout.set_goal(goal)
                 baseline.add(touch.collision)
                 adjustments += 1
@@ -458,10 +464,21 @@ class Executor:
         speed = min(self.config.speed_limit, demo / seg.duration) if demo > 1e-6 else self.config.speed_limit
         return max(seg.duration, new / max(speed, 1e-3))
 
-    @staticmethod
-    def _checked_bodies(obs: Observation) -> set[str]:
-        held = obs.grasped()
-        return set() if held is None else {held}
+    def _goal_shift(self, touch: Touch, goal: np.ndarray, target: np.ndarray | None) -> np.ndarray:
+        """Alg. 2 line 11's goal change (3,) for a collision at ``touch``: ``goalPos − collPos`` with the
+        paper's goalPos, the target object's centre (line 3) for a piece aimed at a target, else the goal
+        of the arm involved (the first arm's if none is), horizontal only and at most
+        :attr:`ExecutionConfig.max_goal_shift` long (module doc)."""
+        if target is None:
+            names = [n for n in (touch.a, touch.b) if n in self.world.arms]
+            arm = self.world.arms.index(names[0]) if names else 0
+            target = goal[3 * arm : 3 * arm + 3]
+        shift = np.asarray(target, float) - touch.position
+        shift[2] = 0.0
+        norm = float(np.linalg.norm(shift))
+        if norm > self.config.max_goal_shift:
+            shift *= self.config.max_goal_shift / norm
+        return shift
 
     def _unallowed(
         self,

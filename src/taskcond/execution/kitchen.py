@@ -20,6 +20,7 @@ from taskcond.execution.sources import condition_from_environment
 from taskcond.execution.world import Observation, Touch
 from taskcond.sim.perception import EnvironmentInfo, Perception, PerceptionConfig
 from taskcond.sim.recording import VideoRecorder
+from taskcond.sim.scene import KINOVA_GRIPPER
 from taskcond.tasks.base import PrimitiveTask, Task, TaskInfo
 from taskcond.tasks.env import KitchenEnv
 from taskcond.tasks.registry import get_task, list_tasks, make
@@ -34,6 +35,9 @@ CONTACT_DISTANCE = 0.002
 contact-breaking threshold); as :class:`~taskcond.sim.perception.RelationThresholds`."""
 VIDEO_EVERY = 2
 """Record every n-th control step."""
+KINOVA_STILL = 1e-4
+"""A demonstration step whose Kinova commands vary less than this (m, quaternion units, gripper) is a
+Franka-only demonstration: the Kinova held still."""
 
 
 def _observation(info: EnvironmentInfo) -> Observation:
@@ -46,6 +50,9 @@ def _observation(info: EnvironmentInfo) -> Observation:
 
 class KitchenWorld:
     """A :class:`KitchenEnv` seen through the environment-information layer (§III-A.2).
+
+    Arms: the Franka (``gripper``) and, in the dual-arm scene, the Kinova Gen3 (``kinova gripper``); a
+    command for the Franka alone leaves the Kinova holding its last command.
 
     Args:
         env: the environment, already reset.
@@ -75,6 +82,9 @@ class KitchenWorld:
             *env.scene.free_objects,
             *(("cloth",) if getattr(env.scene, "cloth", None) is not None else ()),
         )
+        self._arms = ("gripper",) if env.kinova is None else ("gripper", KINOVA_GRIPPER)
+        self._bodies = (env.robot.body,) if env.kinova is None else (env.robot.body, env.kinova.body_id)
+        self._kinova_command: np.ndarray | None = None
         self._joints = tuple(env.scene.joints)
         self._interiors = tuple(env.scene.interiors)
         self.env_seconds = 0.0
@@ -89,6 +99,10 @@ class KitchenWorld:
     def objects(self) -> tuple[str, ...]:
         return self._objects
 
+    @property
+    def arms(self) -> tuple[str, ...]:
+        return self._arms
+
     def observe(self) -> Observation:
         """Environment information now; repeated calls without a control step in between return the same
         observation (same noise draw), as a real robot's perception would until something moves."""
@@ -97,14 +111,16 @@ class KitchenWorld:
         return self._observed[1]
 
     def touches(self) -> tuple[Touch, ...]:
-        """Contacts of the arm (all its links are the gripper) and of whatever it touches with the
-        bodies around, from PyBullet's contact points of the last step: only what Alg. 2 checks."""
-        robot = self.env.robot.body
+        """Contacts of the arms (all of an arm's links are its gripper) and of whatever they touch with
+        the bodies around, from PyBullet's contact points of the last step: only what Alg. 2 checks."""
+        robots = set(self._bodies)
         client = self.env.scene.client
-        points = list(p.getContactPoints(bodyA=robot, physicsClientId=client))
-        touched = {pt[2] for pt in points} - {robot}
-        for body in touched:  # its other contacts; those with the arm are already in ``points``
-            points += [pt for pt in p.getContactPoints(bodyA=body, physicsClientId=client) if pt[2] != robot]
+        points = [pt for r in self._bodies for pt in p.getContactPoints(bodyA=r, physicsClientId=client)]
+        touched = {pt[2] for pt in points} - robots
+        for body in touched:  # its other contacts; those with an arm are already in ``points``
+            points += [
+                pt for pt in p.getContactPoints(bodyA=body, physicsClientId=client) if pt[2] not in robots
+            ]
         merged: dict[frozenset[str], list[np.ndarray]] = {}
         names: dict[frozenset[str], tuple[str, str]] = {}
         for pt in points:
@@ -134,25 +150,42 @@ class KitchenWorld:
             return f"{objects[0]!r} cannot be picked up (movable objects: {', '.join(free)})"
         if primitive == "move_into" and objects[1] not in interiors:
             return f"{objects[1]!r} is not a container (containers: {', '.join(interiors)})"
-        if primitive == "fold":
+        if primitive == "fold" and ("cloth" not in self._objects or len(self._arms) < 2):
             return "folding needs the cloth and two arms, which this scene does not have"
         return None
 
     def reach_error(self, position: np.ndarray) -> str | None:
-        distance = float(np.linalg.norm(np.asarray(position, float) - SHOULDER))
-        if distance > REACH:
-            return f"{distance:.2f} m from the shoulder, the arm reaches {REACH} m"
-        if position[2] < -0.05:
-            return f"{position[2]:.2f} m is below the table"
+        position = np.asarray(position, float)
+        for arm in range(len(position) // 3):
+            point = position[3 * arm : 3 * arm + 3]
+            if arm == 0:
+                shoulder, reach = SHOULDER, REACH
+            else:
+                assert self.env.kinova is not None
+                shoulder, reach = self.env.kinova.shoulder, self.env.kinova.reach
+            distance = float(np.linalg.norm(point - shoulder))
+            if distance > reach:
+                return f"{distance:.2f} m from the {self._arms[arm]}'s shoulder, it reaches {reach:.2f} m"
+            if point[2] < -0.05:
+                return f"{point[2]:.2f} m is below the table"
         return None
 
-    def ee_pose(self) -> tuple[np.ndarray, np.ndarray]:
+    def ee_pose(self, arms: int = 1) -> tuple[np.ndarray, np.ndarray]:
         ee = self.env.robot.ee_pose()
-        return ee.position, ee.orientation
+        if arms < 2:
+            return ee.position, ee.orientation
+        assert self.env.kinova is not None
+        position, orientation = self.env.kinova.ee_pose()
+        return np.concatenate([ee.position, position]), np.concatenate([ee.orientation, orientation])
 
     def step(self, position: np.ndarray, orientation: np.ndarray, gripper: float) -> str | None:
         start = time.perf_counter()
-        _, _, terminated, _, info = self.env.step(np.concatenate([position, orientation, [gripper]]))
+        action = np.concatenate([position[:3], orientation[:4], [gripper]])
+        if len(position) >= 6:
+            self._kinova_command = np.concatenate([position[3:6], orientation[4:8], [gripper]])
+        if self._kinova_command is not None:  # once moved, the Kinova holds its last command
+            action = np.concatenate([action, self._kinova_command])
+        _, _, terminated, _, info = self.env.step(action)
         self.env_seconds += time.perf_counter() - start
         if self.recorder is not None and self.env.steps % VIDEO_EVERY == 0:
             self.recorder.add(self.env.render())
@@ -207,12 +240,15 @@ def _record_step(world: KitchenWorld, step: PrimitiveTask, task_id: str) -> Demo
         env.step(rows[-1])
     after = world.observe()
     actions = np.array(rows)
+    arms = [actions[:, :8]]
+    if actions.shape[1] == 16 and np.ptp(actions[:, 8:], axis=0).max() > KINOVA_STILL:
+        arms.append(actions[:, 8:])
     return Demonstration(
         task_name=name,
         task_id=task_id,
         times=np.arange(len(actions)) * env.dt,
-        positions=actions[:, :3],
-        orientations=actions[:, 3:7],
+        positions=np.concatenate([a[:, :3] for a in arms], axis=1),
+        orientations=np.concatenate([a[:, 3:7] for a in arms], axis=1),
         gripper=actions[:, 7],
         target=target,
         target_center=np.zeros(3) if center is None else center,
@@ -248,11 +284,11 @@ def record_demonstrations(task_id: str, seed: int = 0) -> tuple[list[Demonstrati
 
 
 def primitive_task_ids() -> list[str]:
-    """Suite ids of every primitive task the Franka can demonstrate."""
-    return [t.id for t in list_tasks() if t.kind == "primitive" and t.primitive != "fold"]
+    """Suite ids of every primitive task (the fold with both arms)."""
+    return [t.id for t in list_tasks() if t.kind == "primitive"]
 
 
-CONTEXTS = ("LHT1", "LHT2", "LHT3")
+CONTEXTS = ("LHT1", "LHT2", "LHT3", "LHT4")
 """Long-horizon oracles whose steps are demonstrated too by default: the same primitives started from the
 states a preceding primitive leaves (the hand at a drawer handle, above a box), which demonstrations
 started from the home pose do not show. The novel-object tasks LHT1* and LHT2* are left out."""

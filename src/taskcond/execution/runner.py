@@ -234,17 +234,13 @@ class Job:
 
 
 def eval_task_ids(kind: str) -> list[str]:
-    """Suite ids of ``kind``: ``primitives`` (every primitive task the Franka demonstrates) or
+    """Suite ids of ``kind``: ``primitives`` (every primitive task, the dual-arm fold included) or
     ``long-horizon``."""
     if kind == "primitives":
         return primitive_task_ids()
     if kind == "long-horizon":
-        return [t.id for t in list_tasks() if t.kind == "long-horizon" and _single_arm(t.primitive)]
+        return [t.id for t in list_tasks() if t.kind == "long-horizon"]
     raise ValueError(f"unknown evaluation {kind!r}; valid: primitives, long-horizon")
-
-
-def _single_arm(steps: Iterable[str]) -> bool:
-    return all(parse_task(s).primitive.id != "fold" for s in steps)
 
 
 def jobs_for(tasks: Iterable[str], methods: Iterable[str], episodes: int, seed: int = 1000) -> list[Job]:

@@ -16,6 +16,12 @@ taken from the environment information (target centre plus the demonstrated offs
 later piece starts where the previous one ended and keeps its demonstrated displacement (the paper's rule
 for primitives without a target), so contact-rich motions (drawer pulls, lid arcs) replay relative to
 where the hand meets the object.
+
+Several arms (our addition for the paper's dual-arm fold, §IV). A demonstration of k arms moving together
+(shared timing and gripper events, as the fold oracle) stacks their positions into (n, 3k) and their
+orientations into (n, 4k), arm by arm in the world's order (Franka first). Each piece is then one DMP of
+3k dimensions (still one transformation system per Cartesian dimension, Eq. 1–3), and a target anchor
+puts every arm's goal at the target's centre plus that arm's demonstrated offset.
 """
 
 from __future__ import annotations
@@ -37,7 +43,7 @@ from taskcond.primitives import parse_task
 LIBRARY_FORMAT = 1
 """Version of the on-disk skill library layout; a library with another version is refused."""
 STANDSTILL = 0.01
-"""End-effector speed (m/s) below which a demonstration sample counts as a standstill."""
+"""End-effector speed (m/s) below which a demonstration sample counts as a standstill (of every arm)."""
 MIN_SEGMENT_SAMPLES = 3
 
 Anchor = Literal["target", "relative"]
@@ -55,9 +61,9 @@ class Demonstration:
         task_name: canonical primitive task name, e.g. ``"grasp bottle"``.
         task_id: the suite's id, e.g. ``"grasp-bottle"``.
         times: (n,) s from the start, at the control rate.
-        positions: (n, 3) commanded end-effector positions, metres, world frame.
-        orientations: (n, 4) commanded end-effector quaternions xyzw, world frame.
-        gripper: (n,) gripper commands, 0 open, 1 closed.
+        positions: (n, 3k) commanded end-effector positions of the k arms, metres, world frame.
+        orientations: (n, 4k) commanded end-effector quaternions xyzw of the k arms, world frame.
+        gripper: (n,) gripper commands (every arm's), 0 open, 1 closed.
         target: name of the object (or ``"position"``) whose centre anchors the approach; None if none.
         target_center: (3,) the target's centre at the start, metres, world frame (zeros if no target).
         target_contact: index of the first sample at which the gripper touched the target, or -1.
@@ -81,12 +87,13 @@ class Segment:
     """One DMP-encoded piece of a skill.
 
     Attributes:
-        dmp: position DMP, 3 dimensions (metres, world frame), learned on the piece.
-        orientations: (m, 4) demonstrated quaternions xyzw over the piece, equally spaced in time.
-        gripper: the gripper command during the piece (0 open, 1 closed).
+        dmp: position DMP, 3k dimensions for k arms (metres, world frame), learned on the piece.
+        orientations: (m, 4k) demonstrated quaternions xyzw over the piece, equally spaced in time.
+        gripper: the gripper command during the piece (0 open, 1 closed), every arm's.
         anchor: ``"target"``: the goal is the target's centre plus :attr:`offset`; ``"relative"``: the goal
             is the piece's start plus the demonstrated displacement ``dmp.goal − dmp.y0``.
-        offset: (3,) demonstrated goal minus the target's centre, metres (``"target"`` anchor only).
+        offset: (3k,) demonstrated goal minus the target's centre per arm, metres (``"target"`` anchor
+            only).
     """
 
     dmp: DMPParameters
@@ -100,35 +107,47 @@ class Segment:
         """Demonstrated duration in s (the DMP's τ)."""
         return self.dmp.tau
 
+    @property
+    def arms(self) -> int:
+        """Number of arms k the piece moves."""
+        return self.dmp.n_dims // 3
+
     def goal(self, start: np.ndarray, target_center: np.ndarray | None) -> np.ndarray:
-        """Goal (3,) of the piece started at ``start`` (3,); the target's centre (3,) for target anchors
-        (Alg. 2, line 3); without one, the demonstrated displacement is used instead."""
+        """Goal (3k,) of the piece started at ``start`` (3k,); the target's centre (3,) plus each arm's
+        offset for target anchors (Alg. 2, line 3); without one, the demonstrated displacement."""
         if self.anchor == "target" and target_center is not None:
-            return np.asarray(target_center, float) + self.offset
+            return np.tile(np.asarray(target_center, float), self.arms) + self.offset
         return self.dmp.displaced_goal(np.asarray(start, float))
 
     @cached_property
-    def _profile(self) -> Slerp:
-        if len(self.orientations) == 1:
-            return Slerp([0.0, 1.0], Rotation.from_quat(np.repeat(self.orientations, 2, axis=0)))
-        return Slerp(np.linspace(0.0, 1.0, len(self.orientations)), Rotation.from_quat(self.orientations))
+    def _profiles(self) -> list[Slerp]:
+        profiles = []
+        for arm in range(self.arms):
+            quats = self.orientations[:, 4 * arm : 4 * arm + 4]
+            if len(quats) == 1:
+                profiles.append(Slerp([0.0, 1.0], Rotation.from_quat(np.repeat(quats, 2, axis=0))))
+            else:
+                profiles.append(Slerp(np.linspace(0.0, 1.0, len(quats)), Rotation.from_quat(quats)))
+        return profiles
 
     def orientation(self, fraction: float | np.ndarray, start: np.ndarray) -> np.ndarray:
-        """Orientation xyzw at ``fraction`` ∈ [0, 1] of the piece ((4,), or (m, 4) for m fractions) when it
-        started at orientation ``start`` (4,).
+        """Orientations xyzw of the k arms at ``fraction`` ∈ [0, 1] of the piece ((4k,), or (m, 4k) for m
+        fractions) when it started at orientations ``start`` (4k,).
 
-        The demonstrated profile R_d(s) is carried over as ``Δ(s) R_d(s)``. For a relative piece Δ is the
-        constant world-frame rotation between the new and the demonstrated start; for the approach it is
-        slerped from that rotation to identity, so the hand arrives in the demonstrated orientation
-        relative to the world (the target's frame)."""
+        The demonstrated profile R_d(s) of each arm is carried over as ``Δ(s) R_d(s)``. For a relative
+        piece Δ is the constant world-frame rotation between the new and the demonstrated start; for the
+        approach it is slerped from that rotation to identity, so the hand arrives in the demonstrated
+        orientation relative to the world (the target's frame)."""
         s = np.clip(np.asarray(fraction, dtype=float), 0.0, 1.0)
-        demo = self._profile(np.atleast_1d(s))
-        offset = (Rotation.from_quat(start) * Rotation.from_quat(self.orientations[0]).inv()).as_rotvec()
-        weight = np.ones_like(np.atleast_1d(s))
-        if self.anchor == "target":
-            u = np.atleast_1d(s)
-            weight = 1.0 - u * u * (3 - 2 * u)
-        quats = (Rotation.from_rotvec(weight[:, None] * offset[None, :]) * demo).as_quat()
+        u = np.atleast_1d(s)
+        weight = 1.0 - u * u * (3 - 2 * u) if self.anchor == "target" else np.ones_like(u)
+        start = np.asarray(start, float)
+        arms = []
+        for arm, profile in enumerate(self._profiles):
+            first = Rotation.from_quat(self.orientations[0, 4 * arm : 4 * arm + 4])
+            offset = (Rotation.from_quat(start[4 * arm : 4 * arm + 4]) * first.inv()).as_rotvec()
+            arms.append((Rotation.from_rotvec(weight[:, None] * offset[None, :]) * profile(u)).as_quat())
+        quats = np.concatenate(arms, axis=1)
         return quats if s.ndim else quats[0]
 
 
@@ -155,9 +174,14 @@ class Skill:
         return sum(s.duration for s in self.segments)
 
     @property
+    def arms(self) -> int:
+        """Number of arms k the skill moves together."""
+        return self.segments[0].arms
+
+    @property
     def start_offset(self) -> np.ndarray:
-        """(3,) where the demonstration started: relative to the target's centre for a skill with a
-        target, else in the world frame; metres."""
+        """(3k,) where the demonstration started, per arm: relative to the target's centre for a skill
+        with a target, else in the world frame; metres."""
         first = self.segments[0]
         if first.anchor == "target":
             return first.dmp.y0 - (first.dmp.goal - first.offset)
@@ -198,7 +222,8 @@ def split_points(demo: Demonstration) -> list[int]:
     cuts = set(changes)
     first = min([k for k in (demo.target_contact, *changes[:1]) if k > 0], default=-1)
     if first > 0 and demo.target is not None:
-        speed = np.linalg.norm(np.gradient(demo.positions, demo.times, axis=0), axis=1)
+        velocity = np.gradient(demo.positions, demo.times, axis=0).reshape(n, -1, 3)
+        speed = np.linalg.norm(velocity, axis=2).max(axis=1)  # the fastest arm's
         still = [k for k in range(MIN_SEGMENT_SAMPLES, first + 1) if speed[k] < STANDSTILL]
         cuts.add(still[-1] if still else first)
     return sorted(k for k in cuts if MIN_SEGMENT_SAMPLES <= k <= n - MIN_SEGMENT_SAMPLES)
@@ -225,7 +250,11 @@ def learn_skill(demo: Demonstration) -> Skill:
                 orientations=np.asarray(demo.orientations[lo : hi + 1], float),
                 gripper=float(demo.gripper[min(lo + 1, hi)]),
                 anchor=anchor,
-                offset=positions[-1] - demo.target_center if anchor == "target" else np.zeros(3),
+                offset=(
+                    positions[-1] - np.tile(demo.target_center, positions.shape[1] // 3)
+                    if anchor == "target"
+                    else np.zeros(positions.shape[1])
+                ),
             )
         )
     task = parse_task(demo.task_name)
@@ -260,9 +289,9 @@ class SkillLibrary:
     ) -> Skill:
         """The skill for a primitive task name: among those demonstrated on the same objects (else of the
         same primitive on the same target, else of the same primitive), the one whose demonstration started
-        nearest to ``start`` (3,) — the end effector's position relative to the target's centre, or in the
-        world frame for primitives without a target — and ``orientation`` (4,) xyzw; a tenth of a radian
-        counts as a centimetre.
+        nearest to ``start`` (3,) — the first end effector's position relative to the target's centre, or
+        in the world frame for primitives without a target — and ``orientation`` (4,) xyzw; a tenth of a
+        radian counts as a centimetre.
 
         Raises:
             SkillError: no skill of that primitive.
@@ -283,9 +312,9 @@ class SkillLibrary:
             return candidates[0]
 
         def distance(skill: Skill) -> float:
-            d = float(np.linalg.norm(skill.start_offset - np.asarray(start, float)))
+            d = float(np.linalg.norm(skill.start_offset[:3] - np.asarray(start, float)[:3]))
             if orientation is not None:
-                first = Rotation.from_quat(skill.segments[0].orientations[0])
+                first = Rotation.from_quat(skill.segments[0].orientations[0, :4])
                 d += 0.1 * (first.inv() * Rotation.from_quat(orientation)).magnitude()
             return d
 

@@ -55,10 +55,20 @@ class Observation:
 
 
 class World(Protocol):
-    """A robot arm with a parallel gripper in an observed environment."""
+    """One or more robot arms with parallel grippers in an observed environment.
+
+    Poses and commands of k arms are stacked arm by arm in :attr:`arms` order: positions (3k,), orientations
+    (4k,). A command for fewer arms than the world has moves the first ones; the others hold their last
+    command.
+    """
 
     dt: float
     """Control period, s."""
+
+    @property
+    def arms(self) -> tuple[str, ...]:
+        """The grippers' names in the condition vocabulary, first arm first (``("gripper",)`` for one)."""
+        ...
 
     @property
     def time(self) -> float:
@@ -89,16 +99,18 @@ class World(Protocol):
         ...
 
     def reach_error(self, position: np.ndarray) -> str | None:
-        """Why the end effector cannot reach ``position`` (3,) m, or None."""
+        """Why the end effectors cannot reach ``position`` (3k,) m (one point per arm), or None."""
         ...
 
-    def ee_pose(self) -> tuple[np.ndarray, np.ndarray]:
-        """End-effector position (3,) m and orientation (4,) xyzw, world frame."""
+    def ee_pose(self, arms: int = 1) -> tuple[np.ndarray, np.ndarray]:
+        """Positions (3k,) m and orientations (4k,) xyzw of the first ``arms`` end effectors, world
+        frame."""
         ...
 
     def step(self, position: np.ndarray, orientation: np.ndarray, gripper: float) -> str | None:
-        """Command one control period towards the pose; returns a failure reason (simulation blow-up)
-        or None."""
+        """Command one control period towards the poses of the first k arms (position (3k,),
+        orientation (4k,), every one of their grippers ``gripper``); returns a failure reason
+        (simulation blow-up, an unreachable pose) or None."""
         ...
 
 
