@@ -40,8 +40,9 @@ from taskcond.conditions import TaskCondition
 from taskcond.dmp import DMPParameters, learn_dmp, load_parameters, save_parameters
 from taskcond.primitives import parse_task
 
-LIBRARY_FORMAT = 1
-"""Version of the on-disk skill library layout; a library with another version is refused."""
+LIBRARY_FORMAT = 2
+"""Version of the on-disk skill library layout; a library with another version is refused. Format 2:
+pieces may move several arms (3k-dimensional DMPs, 4k orientation columns); format 1 had one arm."""
 STANDSTILL = 0.01
 """End-effector speed (m/s) below which a demonstration sample counts as a standstill (of every arm)."""
 MIN_SEGMENT_SAMPLES = 3
