@@ -133,6 +133,32 @@ def test_alg2_backs_up_and_moves_the_goal_on_an_unallowed_collision(library) -> 
         assert hit.data["shift"][2] == 0.0  # horizontal only
 
 
+def test_container_states_an_object_cannot_have_are_ignored_with_a_note(library) -> None:
+    """A generated condition with ``bottle closed`` (a bottle has no lid here) neither raises an impossible
+    'open'/'close' nor blocks the post-condition check; an open-top mug's ``mug open`` holds and stays."""
+    slip = TaskCondition(
+        "grasp bottle",
+        ("bottle", "gripper"),
+        (GripperState(None), ContainerState("bottle", False), ContainerState("mug", True)),
+        (GripperState("bottle"), ContainerState("bottle", True)),
+        (Collision("gripper", "bottle"),),
+    )
+    env = make("grasp-bottle")
+    try:
+        env.reset(seed=0)
+        result = Executor(KitchenWorld(env), library, "llm", Fixed({"grasp bottle": slip})).run(
+            ["grasp bottle"]
+        )
+        assert env.task.success(env)
+    finally:
+        env.close()
+    ignored = [e for e in result.events if e.kind == "ignored"]
+    assert len(ignored) == 1 and ignored[0].data["ignored"] == ["bottle closed", "bottle open"]
+    used = result.conditions["grasp bottle"]
+    assert ContainerState("mug", True) in used.pre_conditions
+    assert result.raised == 0 and [e.kind for e in result.events].count("post") == 1
+
+
 def test_bad_input_fails_with_a_reason(library) -> None:
     env = make("move-bottle")
     try:

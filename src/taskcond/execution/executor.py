@@ -47,6 +47,7 @@ the target is not perceived, the simulation fails or the condition source fails.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
@@ -129,10 +130,11 @@ class Event:
 
     Attributes:
         time: world time, s.
-        kind: ``step`` (a top-level primitive starts), ``condition``, ``skip`` (post-conditions already
-            hold), ``raise`` (Alg. 1 raises a primitive for an unmet pre-condition), ``primitive`` (a
-            primitive's DMPs start), ``collision`` (unallowed, adjusted), ``post`` (post-conditions met),
-            ``post_missing``, ``failure``.
+        kind: ``step`` (a top-level primitive starts), ``condition``, ``ignored`` (condition parts that
+            cannot apply here), ``skip`` (post-conditions already hold), ``raise`` (Alg. 1 raises a
+            primitive for an unmet pre-condition), ``primitive`` (a primitive's DMPs start),
+            ``collision`` (unallowed, adjusted), ``post`` (post-conditions met), ``post_missing``,
+            ``failure``.
         task: the primitive task concerned.
         depth: recursion depth (0 = a step of the long-horizon task).
         message: human-readable line.
@@ -241,6 +243,7 @@ class Executor:
                 cond = self.source.condition(task)
             except (ValueError, RuntimeError, OSError) as exc:
                 raise ExecutionError(f"no condition for {task!r}: {exc}", "condition") from exc
+            cond = self._applicable(cond, task, depth)
             self.conditions[task] = cond
             self._emit(
                 "condition",
@@ -446,6 +449,32 @@ class Executor:
             self._step(*self._last)
 
     # --------------------------------------------------------------------------------------- helpers
+    def _applicable(self, cond: TaskCondition, task: str, depth: int) -> TaskCondition:
+        """``cond`` without the container states of objects that have no such state here (``cloth closed``:
+        no primitive can achieve it and no observation can show it), unless they hold now (an open-top mug
+        is ``open``). Generated conditions are expected to contain such slips; each dropped one is
+        reported."""
+        obs = self.world.observe()
+
+        def keep(pred: Predicate) -> bool:
+            if not isinstance(pred, ContainerState) or obs.holds(pred):
+                return True
+            return self.world.affords("close" if pred.is_open else "open", (pred.container,)) is None
+
+        pre = tuple(p for p in cond.pre_conditions if keep(p))
+        post = tuple(p for p in cond.post_conditions if keep(p))
+        dropped = [p for p in (*cond.pre_conditions, *cond.post_conditions) if not keep(p)]
+        if not dropped:
+            return cond
+        self._emit(
+            "ignored",
+            task,
+            depth,
+            f"{task}: ignoring {_join(dropped)} (no such state here)",
+            {"ignored": [str(p) for p in dropped]},
+        )
+        return dataclasses.replace(cond, pre_conditions=pre, post_conditions=post)
+
     def _parse(self, name: str) -> str:
         try:
             task = parse_task(name)
