@@ -2,23 +2,28 @@
 
 Measures, and prints as a markdown table:
 
-* simulation throughput (physics steps/s) of the suite's scene driven through ``KitchenEnv.step`` vs raw
-  PyBullet stepping the same bodies in the same client with the same motor commands, side by side;
+* simulation throughput (physics steps/s) of the suite's scenes driven through ``KitchenEnv.step`` vs raw
+  PyBullet stepping the same bodies in the same client with the same motor commands, side by side: medians
+  and the spread of the env/raw ratio over ``--repeats`` repetitions (:func:`throughput`);
 * reset time, camera time per 320×240 observation, resident memory per environment;
 * oracle success rates over ``--episodes`` seeded episodes per task.
 
-Usage: ``python benchmarks/bench_sim.py [--episodes 100] [--tasks grasp-bottle LHT1 ...]``.
+Usage: ``python benchmarks/bench_sim.py [--episodes 100] [--tasks grasp-bottle LHT1 ...]``;
+``--throughput-only`` prints the throughput table alone.
 """
 
 from __future__ import annotations
 
 import argparse
 import resource
+import statistics
 import time
+from dataclasses import dataclass
 
 import numpy as np
 import pybullet as p
 
+from taskcond.tasks.env import KitchenEnv
 from taskcond.tasks.oracle import run_oracle
 from taskcond.tasks.registry import make, task_ids
 
@@ -31,26 +36,145 @@ def _rss_mb() -> float:
     return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
 
 
-def throughput(task_id: str = "move_into-bottle-box", steps: int = 150) -> dict[str, float]:
-    """Physics steps/s through the env (IK + control + checks) and raw ``stepSimulation`` on the same
-    client and bodies, alternating so both see the same load."""
+THROUGHPUT_TASKS = ("move_into-bottle-box", "LHT1")
+"""Scenes of the throughput measurement: the arm holding the bottle over the open box, and the arm at home
+with the box open (LHT1's initial state)."""
+
+
+@dataclass(frozen=True)
+class Throughput:
+    """Physics steps per CPU second of one scene, through ``KitchenEnv.step`` and raw, medians over the
+    repetitions. CPU time is the benchmark thread's (``time.thread_time``; PyBullet's ``DIRECT`` client
+    simulates in the calling thread), which leaves out the time this shared machine gives other processes;
+    the wall-clock ratios are kept for comparison.
+
+    Attributes:
+        scene: what was stepped (task id and how).
+        env: median physics steps per CPU second through the env (IK, motor commands, blow-up and success
+            checks, observation).
+        raw: median physics steps per CPU second of ``p.stepSimulation`` alone, same client, bodies and motor
+            commands.
+        ratios: env/raw of each repetition (its raw CPU time over its env CPU time), sorted.
+        wall_ratios: the same from wall-clock time (``time.perf_counter``), sorted.
+        overhead_us: median of each repetition's env time minus raw time per control step, µs CPU time.
+    """
+
+    scene: str
+    env: float
+    raw: float
+    ratios: tuple[float, ...]
+    wall_ratios: tuple[float, ...]
+    overhead_us: float
+
+    @property
+    def median(self) -> float:
+        return statistics.median(self.ratios)
+
+
+class _PairedClock:
+    """Times ``env.step`` and, right after it, ``env.substeps`` raw ``stepSimulation`` calls of the same
+    client, so that both see the same load to the millisecond; sums CPU and wall time per repetition."""
+
+    def __init__(self, env: KitchenEnv) -> None:
+        self.env = env
+        self.repetitions: list[tuple[int, float, float, float, float]] = []
+        self._sums = [0, 0.0, 0.0, 0.0, 0.0]
+
+    def step(self, action: np.ndarray) -> bool:
+        """One timed env step and one timed raw control period; whether the episode terminated."""
+        client, substeps = self.env.scene.client, self.env.substeps
+        c0, w0 = time.thread_time(), time.perf_counter()
+        terminated = self.env.step(action)[2]
+        c1, w1 = time.thread_time(), time.perf_counter()
+        for _ in range(substeps):
+            p.stepSimulation(physicsClientId=client)
+        c2, w2 = time.thread_time(), time.perf_counter()
+        sums = self._sums
+        sums[0] += 1
+        sums[1] += c1 - c0
+        sums[2] += c2 - c1
+        sums[3] += w1 - w0
+        sums[4] += w2 - w1
+        return terminated
+
+    def end_repetition(self) -> None:
+        n, t_env, t_raw, w_env, w_raw = self._sums
+        self.repetitions.append((int(n), t_env, t_raw, w_env, w_raw))
+        self._sums = [0, 0.0, 0.0, 0.0, 0.0]
+
+    def result(self, scene: str) -> Throughput:
+        substeps = self.env.substeps
+        reps = self.repetitions
+        return Throughput(
+            scene,
+            statistics.median(n * substeps / t_env for n, t_env, *_ in reps),
+            statistics.median(n * substeps / t_raw for n, _, t_raw, *_ in reps),
+            tuple(sorted(t_raw / t_env for _, t_env, t_raw, *_ in reps)),
+            tuple(sorted(w_raw / w_env for *_, w_env, w_raw in reps)),
+            statistics.median(1e6 * (t_env - t_raw) / n for n, t_env, t_raw, *_ in reps),
+        )
+
+
+def throughput(task_id: str = "move_into-bottle-box", repeats: int = 21, steps: int = 60) -> Throughput:
+    """Physics steps per CPU second through the env and raw ``stepSimulation``, same client and bodies, with
+    the arm holding the pose ``reset`` left (gripper command unchanged).
+
+    Each of ``repeats`` repetitions alternates ``steps`` times one timed ``env.step`` and one timed run of
+    ``env.substeps`` raw ``stepSimulation`` calls; a repetition's ratio is its raw time over its env time.
+    Ten untimed rounds of both come first."""
     env = make(task_id, seed=0)
-    env.reset()
-    obs = env._obs()
-    action = np.concatenate([obs["ee_position"], obs["ee_orientation"], [1.0]])
-    t_env = t_raw = 0.0
-    for _ in range(5):
-        t0 = time.perf_counter()
-        for _ in range(steps // 5):
-            env.step(action)
-        t_env += time.perf_counter() - t0
-        t0 = time.perf_counter()
-        for _ in range(steps // 5 * env.substeps):
-            p.stepSimulation(physicsClientId=env.scene.client)
-        t_raw += time.perf_counter() - t0
-    n = steps // 5 * 5 * env.substeps
+    obs, _ = env.reset()
+    action = np.concatenate([obs["ee_position"], obs["ee_orientation"], [float(env.robot.gripper_closed)]])
+    clock = _PairedClock(env)
+    for _ in range(10):
+        clock.step(action)
+    clock.end_repetition()
+    clock.repetitions.clear()  # the warm-up
+    for _ in range(repeats):
+        for _ in range(steps):
+            clock.step(action)
+        clock.end_repetition()
     env.close()
-    return {"env": n / t_env, "raw": n / t_raw}
+    return clock.result(f"{task_id}, holding the reset pose")
+
+
+def episode_throughput(task_id: str = "LHT1", episodes: int = 5) -> Throughput:
+    """As :func:`throughput` along the oracle's episodes (seeds ``0 .. episodes - 1``, one repetition each):
+    every ``env.step`` of the oracle's actions is followed by ``env.substeps`` timed raw steps with the motor
+    commands it left. The raw steps add simulated time (the arm holds each target one more control period),
+    so the episodes are not the plain oracle's; the env steps include the IK of a moving target."""
+    env = make(task_id)
+    clock = _PairedClock(env)
+    for seed in range(episodes):
+        env.reset(seed=seed)
+        terminated = False
+        for trajectory in env.task.plans(env):
+            for i in range(len(trajectory)):
+                terminated = clock.step(trajectory.action(i))
+                if terminated:
+                    break
+            if terminated:
+                break
+        clock.end_repetition()
+    env.close()
+    return clock.result(f"{task_id}, oracle episodes")
+
+
+def print_throughput(results: list[Throughput]) -> None:
+    """Markdown table of throughput results (rates per CPU second; wall-clock ratios alongside)."""
+    print(
+        "| scene | env physics steps/s | raw physics steps/s | env/raw median | env/raw min-max "
+        "| env/raw median, wall clock | env overhead per control step |"
+    )
+    print("|---|---|---|---|---|---|---|")
+    for r in results:
+        print(
+            f"| {r.scene} | {r.env:.0f} | {r.raw:.0f} | {100 * r.median:.1f}% "
+            f"| {100 * r.ratios[0]:.1f}-{100 * r.ratios[-1]:.1f}% ({len(r.ratios)} repetitions) "
+            f"| {100 * statistics.median(r.wall_ratios):.1f}% "
+            f"({100 * r.wall_ratios[0]:.1f}-{100 * r.wall_ratios[-1]:.1f}%) | {r.overhead_us:.0f} µs |",
+            flush=True,
+        )
 
 
 def timings(task_id: str = "grasp-bottle", n: int = 10) -> dict[str, float]:
@@ -75,14 +199,30 @@ def main() -> None:
     ap.add_argument("--episodes", type=int, default=100)
     ap.add_argument("--tasks", nargs="*", default=None, help="registry ids (default: all)")
     ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument(
+        "--repeats", type=int, default=21, help="throughput repetitions per scene (median and spread)"
+    )
+    ap.add_argument(
+        "--throughput-episodes",
+        type=int,
+        default=5,
+        help="oracle episodes per scene of the episode throughput (one repetition each)",
+    )
+    ap.add_argument(
+        "--throughput-only",
+        action="store_true",
+        help="print the throughput table only (no reset/camera/memory timings, no oracle episodes)",
+    )
     args = ap.parse_args()
 
-    tp = throughput()
+    results = [throughput(t, repeats=args.repeats) for t in THROUGHPUT_TASKS]
+    results += [episode_throughput(t, args.throughput_episodes) for t in THROUGHPUT_TASKS]
+    print_throughput(results)
+    if args.throughput_only:
+        return
     tm = timings()
+    print()
     print("| metric | value |\n|---|---|")
-    print(f"| env physics steps/s (incl. IK, control, checks) | {tp['env']:.0f} |")
-    print(f"| raw PyBullet steps/s, same bodies | {tp['raw']:.0f} |")
-    print(f"| env / raw | {100 * tp['env'] / tp['raw']:.0f}% |")
     print(f"| reset time | {1000 * tm['reset_s']:.1f} ms |")
     print(f"| camera 320x240 per observation | {1000 * tm['camera_s']:.1f} ms |")
     print(f"| memory per environment | {tm['memory_mb']:.1f} MB |")

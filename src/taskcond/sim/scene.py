@@ -13,6 +13,7 @@ which acts as joint friction; drawers, lid and door only move when the gripper p
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -143,7 +144,7 @@ class WorldInterior:
         local = self.rotation.T @ (np.asarray(point) - self.center)
         if self.round and math.hypot(local[0], local[1]) > self.half_extents[0] + margin:
             return False
-        return bool(np.all(np.abs(local) <= self.half_extents + margin))
+        return bool((np.abs(local) <= self.half_extents + margin).all())
 
 
 class KitchenScene:
@@ -177,6 +178,7 @@ class KitchenScene:
         cfg = self.config
         self.bodies: dict[str, int] = {}
         self._inertial_inverse: dict[int, tuple] = {}
+        self._fixed_interiors: dict[str, WorldInterior] = {}
         self.links: dict[str, int] = {}
         self.interiors: dict[str, Interior] = {}
         self.joints: dict[str, ContainerJoint] = {}
@@ -340,16 +342,23 @@ class KitchenScene:
         body, link = self.bodies[name], self.links.get(name, -1)
         if link < 0:
             pos, orn = p.getBasePositionAndOrientation(body, physicsClientId=self.client)
-            # base position is the centre of mass; convert to the URDF link frame (constant per body)
-            inv = self._inertial_inverse.get(body)
-            if inv is None:
-                local = p.getDynamicsInfo(body, -1, physicsClientId=self.client)[3]
-                inv = self._inertial_inverse[body] = p.invertTransform(local, (0, 0, 0, 1))
-            pos, orn = p.multiplyTransforms(pos, orn, inv[0], inv[1])
+            pos, orn = self.base_frame(body, pos, orn)
         else:
             state = p.getLinkState(body, link, computeForwardKinematics=True, physicsClientId=self.client)
             pos, orn = state[4], state[5]
         return np.array(pos), np.array(orn)
+
+    def base_frame(
+        self, body: int, com_position: Sequence[float], com_orientation: Sequence[float]
+    ) -> tuple[tuple[float, float, float], tuple[float, float, float, float]]:
+        """World pose (position m, quaternion xyzw) of ``body``'s URDF base-link frame, given the pose of its
+        centre-of-mass frame as ``p.getBasePositionAndOrientation`` reports it (the offset is constant per
+        body and cached)."""
+        inv = self._inertial_inverse.get(body)
+        if inv is None:
+            local = p.getDynamicsInfo(body, -1, physicsClientId=self.client)[3]
+            inv = self._inertial_inverse[body] = p.invertTransform(local, (0, 0, 0, 1))
+        return p.multiplyTransforms(com_position, com_orientation, inv[0], inv[1])
 
     def aabb(self, name: str) -> tuple[np.ndarray, np.ndarray]:
         """World axis-aligned bounding box (min (3,), max (3,)) of a named body or link."""
@@ -367,19 +376,29 @@ class KitchenScene:
         return (self.joint_position(container) - j.closed_position) / (j.open_position - j.closed_position)
 
     def interior(self, container: str) -> WorldInterior:
-        """A container's interior volume in the world frame, following its link (drawer, vessel)."""
+        """A container's interior volume in the world frame, following its link (drawer, vessel). The interior
+        of a fixed body's base (box, microwave) never moves: it is computed once, with read-only arrays."""
+        fixed = self._fixed_interiors.get(container)
+        if fixed is not None:
+            return fixed
         it = self.interiors[container]
         body = self.bodies[container]
-        if it.link in ("base", "carcass", "shell"):
+        on_base = it.link in ("base", "carcass", "shell")
+        if on_base:
             pos, orn = self.pose(container)
         else:
             link = self.links[container]
             state = p.getLinkState(body, link, computeForwardKinematics=True, physicsClientId=self.client)
             pos, orn = state[4], state[5]
         rot = np.array(p.getMatrixFromQuaternion(orn)).reshape(3, 3)
-        return WorldInterior(
+        interior = WorldInterior(
             np.asarray(pos) + rot @ np.array(it.center), np.array(it.half_extents), rot, it.round
         )
+        if on_base and container not in self.free_objects:
+            for array in (interior.center, interior.half_extents, interior.rotation):
+                array.setflags(write=False)
+            self._fixed_interiors[container] = interior
+        return interior
 
     def set_joint(self, container: str, fraction: float) -> None:
         """Put a container at ``fraction`` of its range, at rest (episode reset only)."""

@@ -37,14 +37,15 @@ After every control step the soft-body anchors of the grippers on the cloth are 
 
 from __future__ import annotations
 
-from typing import Any, ClassVar
+import math
+from typing import Any, ClassVar, NamedTuple
 
 import gymnasium as gym
 import numpy as np
 import pybullet as p
 from gymnasium import spaces
 
-from taskcond.sim.franka import HOME, top_down
+from taskcond.sim.franka import ARM_JOINTS, FINGER_JOINTS, HOME, top_down
 from taskcond.sim.kinova import GEN3_HOME
 from taskcond.sim.scene import ARTICULATED, PHYSICS_HZ, KitchenScene, SceneConfig
 from taskcond.tasks.base import Task
@@ -52,6 +53,10 @@ from taskcond.tasks.groundtruth import GroundTruth
 
 WORKSPACE = (np.array([-0.4, -1.0, -0.2]), np.array([1.1, 1.0, 1.5]))
 """Bounds (min, max) in metres of where free objects may be; leaving them ends the episode."""
+_WORKSPACE_BOUNDS = tuple(zip(WORKSPACE[0].tolist(), WORKSPACE[1].tolist(), strict=True))
+"""(min, max) per world axis of :data:`WORKSPACE`, as floats for the per-step check."""
+_ROBOT_JOINTS = (*ARM_JOINTS, *FINGER_JOINTS)
+"""Franka joints read once per control step: the arm's seven, then the two fingers."""
 PENETRATION = 0.03
 """Contact depth (m) counted as a simulation blow-up."""
 RENDER_SIZE = (320, 240)
@@ -67,6 +72,21 @@ PARKING = (100.0, 0.0, 100.0)
 others follow :data:`PARKING_SPACING` apart along +x, far from each other and from every other body."""
 PARKING_SPACING = 2.0
 """Metres between parked free objects (every object is smaller than 0.5 m)."""
+
+
+class _Reading(NamedTuple):
+    """The simulator state read once after a control step, shared by the blow-up check and the observation.
+
+    Attributes:
+        joints: ``p.getJointStates`` of :data:`_ROBOT_JOINTS` (position rad or m, velocity, ...).
+        bases: centre-of-mass pose (position m, quaternion xyzw, world) of each free object, in the order of
+            :attr:`KitchenEnv.object_names`, as ``p.getBasePositionAndOrientation`` reports it.
+        cloth_nodes: (n*n, 3) world node positions (m) of the cloth, or ``None`` without one.
+    """
+
+    joints: tuple[tuple[Any, ...], ...]
+    bases: list[tuple[tuple[float, float, float], tuple[float, float, float, float]]]
+    cloth_nodes: np.ndarray | None
 
 
 class KitchenEnv(gym.Env):
@@ -187,7 +207,8 @@ class KitchenEnv(gym.Env):
         if action.shape != (8,):
             valid = "(16,), (8,) or (7,)" if self.kinova is not None else "(8,) or (7,)"
             raise ValueError(f"action must have shape {valid}, got {action.shape}")
-        orn = action[3:7] / (np.linalg.norm(action[3:7]) or 1.0)
+        orn = action[3:7]
+        orn = orn / (math.sqrt(orn.dot(orn)) or 1.0)  # np.linalg.norm's arithmetic, without its overhead
         if self.failure is None and kinova_action is not None:
             self._command_kinova(kinova_action)
         if self.failure is None:
@@ -197,12 +218,14 @@ class KitchenEnv(gym.Env):
                 p.stepSimulation(physicsClientId=self.scene.client)
             if self.scene.grips is not None:
                 self.scene.grips.update()
-            self.failure = self._check_blowup()
+        reading = self._read()
+        if self.failure is None:
+            self.failure = self._check_blowup(reading)
         self.steps += 1
         success = self.failure is None and self.task.success(self)
         terminated = self.failure is not None
         truncated = self.steps >= self.task.max_steps
-        return self._obs(), float(success), terminated, truncated, self._info(success)
+        return self._obs(reading), float(success), terminated, truncated, self._info(success)
 
     def _command_kinova(self, action: np.ndarray) -> None:
         """Kinova motor targets for an (8,) action; a target it cannot reach sets :attr:`failure`."""
@@ -287,15 +310,32 @@ class KitchenEnv(gym.Env):
         """End-effector pose of the home joint configuration."""
         return self.robot.fk(np.array(HOME)).position, np.array(top_down())
 
-    def _obs(self) -> dict[str, np.ndarray]:
+    def _read(self) -> _Reading:
+        """Read the Franka's joints, the free objects' poses and the cloth's nodes (one query each)."""
+        client = self.scene.client
+        return _Reading(
+            p.getJointStates(self.robot.body, _ROBOT_JOINTS, physicsClientId=client),
+            [p.getBasePositionAndOrientation(body, physicsClientId=client) for body in self._free_ids],
+            self.scene.cloth_nodes() if self.scene.cloth is not None else None,
+        )
+
+    def _obs(self, reading: _Reading | None = None) -> dict[str, np.ndarray]:
+        """The observation (see the module docstring), from ``reading`` if given, else read now."""
+        if reading is None:
+            reading = self._read()
         ee = self.robot.ee_pose()
-        poses = np.array([np.concatenate(self.scene.pose(n)) for n in self.object_names])
+        flat: list[float] = []
+        for body, (com_position, com_orientation) in zip(self._free_ids, reading.bases, strict=True):
+            position, orientation = self.scene.base_frame(body, com_position, com_orientation)
+            flat += position
+            flat += orientation
+        fingers = reading.joints[len(ARM_JOINTS) :]
         obs = {
             "ee_position": ee.position,
             "ee_orientation": ee.orientation,
-            "gripper_width": np.array([self.robot.finger_width()]),
-            "joint_positions": self.robot.joint_positions(),
-            "object_poses": poses,
+            "gripper_width": np.array([fingers[0][0] + fingers[1][0]]),
+            "joint_positions": np.array([s[0] for s in reading.joints[: len(ARM_JOINTS)]]),
+            "object_poses": np.array(flat).reshape(len(self._free_ids), 7),
             "container_open": np.array([self.scene.open_fraction(c) for c in ARTICULATED]),
             "target": self.target.copy(),
         }
@@ -305,8 +345,8 @@ class KitchenEnv(gym.Env):
             obs["kinova_ee_orientation"] = orientation
             obs["kinova_gripper_width"] = np.array([self.kinova.gripper_opening()])
             obs["kinova_joint_positions"] = self.kinova.joint_positions()
-        if self.scene.cloth is not None:
-            obs["cloth_nodes"] = self.scene.cloth_nodes()
+        if reading.cloth_nodes is not None:
+            obs["cloth_nodes"] = reading.cloth_nodes
         return obs
 
     def _info(self, success: bool = False) -> dict[str, Any]:
@@ -317,28 +357,34 @@ class KitchenEnv(gym.Env):
             "steps": self.steps,
         }
 
-    def _check_blowup(self) -> str | None:
-        client = self.scene.client
-        if not np.all(np.isfinite(self.robot.joint_positions())):
+    def _check_blowup(self, reading: _Reading) -> str | None:
+        """The blow-up of the state in ``reading`` and the current contacts, or ``None``: ``nan_state`` (a
+        non-finite Franka arm joint, free-object position, Kinova joint or cloth node),
+        ``<object>_left_workspace`` (the first free object whose centre of mass is outside
+        :data:`WORKSPACE`), ``cloth_left_workspace``, ``deep_penetration`` (a rigid contact deeper than
+        :data:`PENETRATION`), checked in this order."""
+        if not all(math.isfinite(s[0]) for s in reading.joints[: len(ARM_JOINTS)]):
             return "nan_state"
-        positions = np.array(
-            [p.getBasePositionAndOrientation(body, physicsClientId=client)[0] for body in self._free_ids]
-        ).reshape(-1, 3)
-        if not np.isfinite(positions).all():
-            return "nan_state"
-        outside = ((positions < WORKSPACE[0]) | (positions > WORKSPACE[1])).any(axis=1)
-        if outside.any():
+        (x_lo, x_hi), (y_lo, y_hi), (z_lo, z_hi) = _WORKSPACE_BOUNDS
+        # NaN fails every comparison, so this one pass passes exactly the finite positions inside
+        if not all(
+            x_lo <= x <= x_hi and y_lo <= y <= y_hi and z_lo <= z <= z_hi for (x, y, z), _ in reading.bases
+        ):
+            positions = np.array([com for com, _ in reading.bases])
+            if not np.isfinite(positions).all():
+                return "nan_state"
+            outside = ((positions < WORKSPACE[0]) | (positions > WORKSPACE[1])).any(axis=1)
             return f"{self.object_names[int(np.argmax(outside))]}_left_workspace"
         if self.kinova is not None and not np.all(np.isfinite(self.kinova.joint_positions())):
             return "nan_state"
-        if self.scene.cloth is not None:
-            nodes = self.scene.cloth_nodes()
+        if reading.cloth_nodes is not None:
+            nodes = reading.cloth_nodes
             if not np.all(np.isfinite(nodes)):
                 return "nan_state"
             if np.any(nodes < WORKSPACE[0]) or np.any(nodes > WORKSPACE[1]):
                 return "cloth_left_workspace"
         soft = self.scene.cloth  # soft contacts report no meaningful depth
-        for pt in p.getContactPoints(physicsClientId=client):
+        for pt in p.getContactPoints(physicsClientId=self.scene.client):
             if pt[8] < -PENETRATION and soft not in (pt[1], pt[2]):
                 return "deep_penetration"
         return None

@@ -47,6 +47,7 @@ class GroundTruth:
 
     def __init__(self, scene: KitchenScene) -> None:
         self.scene = scene
+        self._free_by_body = {scene.bodies[name]: name for name in scene.free_objects}
 
     def com(self, name: str) -> np.ndarray:
         """Centre (3,) m, world: centre of mass of a free object, mean node of the cloth, AABB centre of
@@ -79,24 +80,44 @@ class GroundTruth:
             out.append(any(pt[4] == link or link < 0 for pt in pts))
         return out[0], out[1]
 
+    def free_objects_touched(self, gripper: str = GRIPPER) -> tuple[set[str], set[str]]:
+        """The free objects the left and the right finger of ``gripper`` touch (one contact query per
+        finger)."""
+        robot, fingers = self._fingers(gripper)
+        by_body, client = self._free_by_body, self.scene.client
+        left, right = (
+            {
+                by_body[pt[2]]
+                for pt in p.getContactPoints(bodyA=robot, linkIndexA=finger, physicsClientId=client)
+                if pt[2] in by_body
+            }
+            for finger in fingers
+        )
+        return left, right
+
     def grasping(self, name: str, gripper: str = GRIPPER) -> bool:
         if name == "cloth" and self.scene.grips is not None:
             return self.scene.grips.holding(gripper)
         left, right = self.finger_contacts(name, gripper)
         return left and right
 
+    def holding_cloth(self, gripper: str = GRIPPER) -> bool:
+        """Whether ``gripper`` holds the cloth (``False`` without one)."""
+        return self.scene.grips is not None and self.scene.grips.holding(gripper)
+
     def grasped(self, gripper: str = GRIPPER) -> str | None:
-        """The free object held between both fingers (or the cloth held), if any."""
+        """The free object held between both fingers (the first in the scene's order), or the cloth held, if
+        any."""
+        left, right = self.free_objects_touched(gripper)
         for name in self.scene.free_objects:
-            if self.grasping(name, gripper):
+            if name in left and name in right:
                 return name
-        if self.scene.grips is not None and self.scene.grips.holding(gripper):
-            return "cloth"
-        return None
+        return "cloth" if self.holding_cloth(gripper) else None
 
     def touching_any(self, gripper: str = GRIPPER) -> bool:
         """Whether a finger of ``gripper`` touches any free object."""
-        return any(any(self.finger_contacts(n, gripper)) for n in self.scene.free_objects)
+        left, right = self.free_objects_touched(gripper)
+        return bool(left or right)
 
     def is_open(self, container: str) -> bool:
         if container not in self.scene.joints:
@@ -135,11 +156,10 @@ class GroundTruth:
         """Whether a condition holds in the current simulator state."""
         if isinstance(pred, GripperState):
             g = pred.gripper
-            return (
-                self.grasped(g) is None and not self.touching_any(g)
-                if pred.obj is None
-                else self.grasping(pred.obj, g)
-            )
+            if pred.obj is not None:
+                return self.grasping(pred.obj, g)
+            # not grasping: no finger on a free object (so none grasped) and no cloth held
+            return not self.touching_any(g) and not self.holding_cloth(g)
         if isinstance(pred, ContainerState):
             return self.is_open(pred.container) if pred.is_open else self.is_closed(pred.container)
         assert isinstance(pred, SpatialRelation)
