@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 from numpy.testing import assert_allclose
@@ -9,7 +11,8 @@ from numpy.testing import assert_allclose
 pytest.importorskip("pybullet")
 
 from taskcond.conditions import GripperState, Relation, SpatialRelation
-from taskcond.sim.cloth import ClothSpec, covered_layers, fold_measure
+from taskcond.sim.cloth import ClothSpec, FingerFrame, covered_layers, fold_measure, nodes_between_fingers
+from taskcond.sim.franka import top_down
 from taskcond.sim.perception import Perception, PerceptionConfig
 from taskcond.sim.scene import KINOVA_GRIPPER
 from taskcond.tasks.fold import fold_trajectory
@@ -40,6 +43,7 @@ def test_fold_measure_of_a_flat_and_an_ideal_fold():
     ideal = fold_measure(_folded(spec, 0.004), spec, "-x", "+x", cell=0.002)
     assert_allclose(ideal.double_fraction, 1.0, atol=0.05)
     assert_allclose(ideal.edge_distance, 0.004)
+    assert_allclose(ideal.edge_offset, 0.0, atol=1e-12)  # the layers differ in height only
     assert_allclose(ideal.max_height, 0.004)
 
 
@@ -51,9 +55,29 @@ def test_covered_layers_counts_each_layer_once():
     assert np.all(counts == 1)  # cell centres never lie on a shared triangle edge here
 
 
+def test_nodes_between_fingers_grows_the_box_per_axis():
+    frame = FingerFrame(
+        center=np.zeros(3),
+        closing=np.array([1.0, 0.0, 0.0]),
+        approach=np.array([0.0, 0.0, -1.0]),
+        half_opening=0.01,
+        pad_half_width=0.01,
+        pad_half_length=0.02,
+        pad_thickness=0.005,
+    )
+    # between the pads; beside a pad (closing axis); past the pad's side (across); past the fingertips
+    nodes = np.array([[0.0, 0.0, 0.0], [0.013, 0.0, 0.0], [0.0, 0.015, 0.0], [0.0, 0.0, -0.025]])
+    assert nodes_between_fingers(nodes, frame, 0.0).tolist() == [0]
+    assert nodes_between_fingers(nodes, frame, 0.006).tolist() == [0, 2, 3]
+    assert nodes_between_fingers(nodes, frame, 0.006, across_margin=0.0).tolist() == [0, 3]
+    assert nodes_between_fingers(nodes, frame, 0.0, closing_margin=0.005).tolist() == [0, 1]
+
+
 def test_cloth_spec_rejects_bad_values():
     with pytest.raises(ValueError, match="at least 3 nodes per edge"):
         ClothSpec(resolution=2)
+    with pytest.raises(ValueError, match="substeps must be at least 1"):
+        ClothSpec(substeps=0)
     with pytest.raises(ValueError, match="unknown cloth edge 'x'"):
         ClothSpec().edge("x")
 
@@ -104,13 +128,65 @@ def test_dual_arm_scene_names_both_grippers_and_reads_the_cloth(fold_env):
     # the Kinova stands on the Franka's left, clear of the single-arm work area
     assert env.kinova.base_position[1] > 0.5
     # the spatula put on the cloth: the relation in perception; both grippers free
-    env.scene.place("spatula", env.scene.config.cloth_center, 0.0)
+    top = float(obs["cloth_nodes"][:, 2].max())
+    env.scene.place("spatula", env.scene.config.cloth_center, 0.0, z=top + 0.003)
     env.settle(0.2)
     info = Perception(description, PerceptionConfig(check_visibility=False)).observe(0)
     assert SpatialRelation("spatula", Relation.ABOVE, "cloth") in info.predicates
     assert {GripperState(None), GripperState(None, KINOVA_GRIPPER)} <= info.predicates
     lo, hi = info.boxes["cloth"].lower, info.boxes["cloth"].upper
     assert_allclose(hi[:2] - lo[:2], [spec.size, spec.size], atol=0.02)
+
+
+def test_spatula_put_on_the_cloth_rests_on_it(fold_env):
+    """The spatula collides with the cloth: dropped 3 mm onto it, it comes to rest on the nodes beneath
+    it (bottom above them by less than the cloth's collision margin and its own), not on the table through
+    the cloth, and the cloth stays flat (2 sub-steps per 240 Hz step; at 1 it blew up within a second)."""
+    env = fold_env
+    obs, _ = env.reset(seed=2)
+    flat = obs["cloth_nodes"]
+    centre = flat[:, :2].mean(axis=0)
+    env.scene.place("spatula", centre, 0.4, z=float(flat[:, 2].max()) + 0.003)
+    env.settle(1.5)
+    lo, hi = env.scene.aabb("spatula")
+    nodes = env.scene.cloth_nodes()
+    beneath = nodes[np.all((nodes[:, :2] >= lo[:2]) & (nodes[:, :2] <= hi[:2]), axis=1)]
+    assert len(beneath) >= 20
+    gap = lo[2] - beneath[:, 2].max()
+    assert 0.0 < gap < 0.006  # on the cloth's nodes, within the contact margins
+    assert lo[2] > env.scene.config.cloth.collision_margin + 0.001  # not on the table
+    assert np.abs(nodes - flat).max() < 0.003  # no blow-up: every node within 3 mm of where it lay
+    assert_allclose(env.scene.pose("spatula")[0][:2], centre, atol=0.005)  # and it stayed put
+
+
+def _sweep_open_fingers(env) -> float:
+    """Sweep the open Franka fingers 8 cm along +x into the cloth's near edge, fingertips about 4 mm above
+    the table, closing axis along x; return the mean x displacement (m) of the cloth's nodes."""
+    flat = env.scene.cloth_nodes()
+    orientation = np.array(top_down(np.pi / 2))
+    start = np.array([flat[:, 0].min() - 0.04, flat[:, 1].mean() - 0.06, 0.015])
+    for k in range(60):
+        z = 0.1 if k < 20 else 0.0
+        ahead = max(0, k - 40) / 20 * 0.08
+        env.step(np.concatenate([start + np.array([ahead, 0.0, z]), orientation, [0.0]]))
+    return float((env.scene.cloth_nodes() - flat)[:, 0].mean())
+
+
+def test_open_fingers_push_the_cloth_and_pass_through_only_with_pad_contact_off(fold_env):
+    env = fold_env
+    grips = env.scene.grips
+    env.reset(seed=0)
+    pushed = _sweep_open_fingers(env)
+    assert grips.passing == set() and grips.anchors == {}
+    assert pushed > 0.005
+    grips.spec = replace(grips.spec, pad_contact=False)
+    try:
+        env.reset(seed=0)
+        assert grips.passing == {"gripper", KINOVA_GRIPPER}
+        assert abs(_sweep_open_fingers(env)) < 1e-4  # the fingers pass through
+    finally:
+        grips.spec = env.scene.config.cloth
+        grips.reset_contacts()
 
 
 def test_kinova_target_out_of_reach_fails_the_episode_with_its_reason(fold_env):
@@ -130,6 +206,7 @@ def test_fold_oracle_folds_the_cloth_with_both_arms(fold_env):
     assert (ok, reason) == (True, None)
     assert trajectory.action(0).shape == (16,)
     assert env.scene.grips.anchors == {}  # both let go
+    assert env.scene.grips.passing == set()  # and the finger links collide with the cloth again
     frame = env.render()
     assert frame.shape == (240, 320, 3)
 

@@ -12,12 +12,19 @@ A soft body lives only in PyBullet's deformable world, which must be requested b
 :class:`taskcond.sim.scene.KitchenScene`).
 
 Grasping (:class:`ClothGrips`): PyBullet's soft-rigid contact does not hold a thin cloth between two
-rigid pads (squeezed between them, the nodes are shot away), so the finger links do not collide with the
-cloth and a closed grasp is represented by soft-body anchors. An anchor fixes a node to a
-finger link, and is created only while the gripper is commanded closed, its pads are at most
-:attr:`ClothSpec.pinch_opening` apart (the fingers have actually closed on something thin) and the node
-lies in the box swept between the two pads (:func:`nodes_between_fingers`). Opening the gripper removes the
-anchors. Rigid objects are never anchored: they stay grasped by friction.
+rigid pads (squeezed between them, the nodes are shot away), so a closed grasp is represented by soft-body
+anchors. An anchor fixes a node to a finger link, and is created only while the gripper is commanded closed,
+its pads are at most :attr:`ClothSpec.pinch_opening` apart (the fingers have actually closed on something
+thin) and the node lies in the box swept between the two pads (:func:`nodes_between_fingers`). Opening the
+gripper removes the anchors. Rigid objects are never anchored: they stay grasped by friction.
+
+The finger links collide with the cloth (:attr:`ClothSpec.pad_contact`), except those of a gripper with
+cloth nodes between its pads (the box between them, no wider than the pads, reaching
+:attr:`ClothSpec.pad_margin` beyond the fingertips) or holding anchors: these pass through the cloth, so
+that closing on the cloth, holding it and letting go do not squeeze nodes between the pads (measured with
+the pads colliding throughout: nodes shot 15 mm in one control step as the pads closed, 41 mm when they
+opened, and the rising fingers dragged the folded layer up, failing the fold), and collide again once no
+node is within ``pad_margin`` of the pads.
 """
 
 from __future__ import annotations
@@ -50,6 +57,11 @@ class ClothSpec:
         pad_margin: metres by which the box between the pads is grown for anchoring (the nodes lie at the
             cloth's mid-surface, the fingertips stop at the table).
         max_anchors: anchors per gripper (the nodes nearest the grasp point).
+        pad_contact: the finger links collide with the cloth unless cloth nodes lie between the pads (see
+            the module docstring); ``False``: they never do.
+        substeps: physics sub-steps per 240 Hz step of a scene with the cloth
+            (``setPhysicsEngineParameter(numSubSteps=...)``): a rigid object resting on the cloth is stable
+            only from 2 sub-steps (see :func:`taskcond.sim.scene.KitchenScene`).
     """
 
     size: float = 0.26
@@ -65,12 +77,16 @@ class ClothSpec:
     pinch_opening: float = 0.02
     pad_margin: float = 0.012
     max_anchors: int = 3
+    pad_contact: bool = True
+    substeps: int = 2
 
     def __post_init__(self) -> None:
         if self.resolution < 3:
             raise ValueError(f"cloth resolution must be at least 3 nodes per edge, not {self.resolution}")
         if self.size <= 0 or self.mass <= 0:
             raise ValueError(f"cloth size and mass must be positive, not {self.size} m, {self.mass} kg")
+        if self.substeps < 1:
+            raise ValueError(f"cloth substeps must be at least 1, not {self.substeps}")
 
     @property
     def spacing(self) -> float:
@@ -164,7 +180,8 @@ class FingerFrame:
     """Where a parallel gripper's pads are: ``center`` (3,) midpoint between the two finger links,
     ``closing`` (3,) unit axis from one finger to the other, ``approach`` (3,) unit axis pointing out of the
     hand (towards the fingertips), ``half_opening`` (m), ``pad_half_width`` and ``pad_half_length`` (m): the
-    pads' half extents across the closing axis, horizontally and along the approach axis."""
+    pads' half extents across the closing axis, horizontally and along the approach axis, and
+    ``pad_thickness`` (m): a finger link's extent along the closing axis."""
 
     center: np.ndarray
     closing: np.ndarray
@@ -172,6 +189,7 @@ class FingerFrame:
     half_opening: float
     pad_half_width: float
     pad_half_length: float
+    pad_thickness: float
 
 
 def finger_frame(client: int, body: int, finger_links: tuple[int, int], ee_link: int) -> FingerFrame:
@@ -199,17 +217,26 @@ def finger_frame(client: int, body: int, finger_links: tuple[int, int], ee_link:
         half_opening=distance / 2,
         pad_half_width=float(abs(across) @ extent) / 2,
         pad_half_length=float(abs(approach) @ extent) / 2,
+        pad_thickness=float(abs(closing) @ extent),
     )
 
 
-def nodes_between_fingers(nodes: np.ndarray, frame: FingerFrame, margin: float) -> np.ndarray:
-    """Indices of the ``nodes`` (k, 3) lying in the box between the two pads, grown by ``margin`` m across
-    and along the approach axis (not along the closing axis: a node must be between the fingers)."""
+def nodes_between_fingers(
+    nodes: np.ndarray,
+    frame: FingerFrame,
+    margin: float,
+    closing_margin: float = 0.0,
+    across_margin: float | None = None,
+) -> np.ndarray:
+    """Indices of the ``nodes`` (k, 3) lying in the box between the two pads, grown by ``margin`` m along
+    the approach axis, by ``across_margin`` m (default ``margin``) across it and by ``closing_margin`` m
+    along the closing axis (0: a node must be between the fingers)."""
     rel = nodes - frame.center
     across = np.cross(frame.approach, frame.closing)
+    widen = margin if across_margin is None else across_margin
     inside = (
-        (np.abs(rel @ frame.closing) <= frame.half_opening)
-        & (np.abs(rel @ across) <= frame.pad_half_width + margin)
+        (np.abs(rel @ frame.closing) <= frame.half_opening + closing_margin)
+        & (np.abs(rel @ across) <= frame.pad_half_width + widen)
         & (np.abs(rel @ frame.approach) <= frame.pad_half_length + margin)
     )
     return np.flatnonzero(inside)
@@ -230,10 +257,12 @@ class GripperHandle:
 
 @dataclass
 class ClothGrips:
-    """Soft-body anchors standing in for the grips of the grippers on the cloth (see the module docstring).
+    """Soft-body anchors standing in for the grips of the grippers on the cloth, and the finger links'
+    collisions with it (see the module docstring).
 
-    Call :meth:`update` after every control step; :attr:`anchors` maps a gripper name to its anchor
-    constraint ids and :attr:`nodes` to the anchored node indices.
+    Call :meth:`update` after every control step and :meth:`reset_contacts` after the cloth is reloaded;
+    :attr:`anchors` maps a gripper name to its anchor constraint ids, :attr:`nodes` to the anchored node
+    indices, and :attr:`passing` holds the names of the grippers whose finger links pass through the cloth.
     """
 
     client: int
@@ -242,35 +271,59 @@ class ClothGrips:
     grippers: list[GripperHandle]
     anchors: dict[str, list[int]] = field(default_factory=dict)
     nodes: dict[str, list[int]] = field(default_factory=dict)
+    passing: set[str] = field(default_factory=set)
 
     def __post_init__(self) -> None:
-        self.ignore_fingers()
+        self.reset_contacts()
 
-    def ignore_fingers(self) -> None:
-        """Turn off collisions between the cloth and every finger link (call again after the cloth is
-        reloaded). PyBullet's soft contact between two pads squeezing a cloth is unstable (measured here:
-        the nodes between the pads are shot away within two control steps), so the closed grip is the anchors
-        alone and the pads pass through the cloth."""
+    def reset_contacts(self) -> None:
+        """Let every finger link collide with the (re)loaded cloth, or none with ``pad_contact`` off."""
+        self.passing = set()
         for g in self.grippers:
-            for link in g.finger_links:
-                p.setCollisionFilterPair(self.cloth, g.body, -1, link, 0, physicsClientId=self.client)
+            self._pass_through(g, not self.spec.pad_contact, force=True)
+
+    def _pass_through(self, g: GripperHandle, passing: bool, force: bool = False) -> None:
+        """Turn the collisions between the cloth and the finger links of ``g`` off (``passing``) or on."""
+        if not force and passing == (g.name in self.passing):
+            return
+        for link in g.finger_links:
+            p.setCollisionFilterPair(
+                self.cloth, g.body, -1, link, int(not passing), physicsClientId=self.client
+            )
+        if passing:
+            self.passing.add(g.name)
+        else:
+            self.passing.discard(g.name)
 
     def update(self) -> None:
-        """Anchor the cloth to every gripper closed on it; release every gripper that opened."""
-        positions: np.ndarray | None = None
+        """Anchor the cloth to every gripper closed on it; release every gripper that opened; with
+        ``pad_contact``, let the finger links of a gripper pass through the cloth from when nodes lie between
+        its pads until it holds no anchor and no node lies within ``pad_margin`` of its pads."""
+        positions = cloth_nodes(self.client, self.cloth)
         for g in self.grippers:
-            closed = bool(g.closed())  # type: ignore[operator]
-            if not closed:
-                self.release(g.name)
-                continue
-            if self.anchors.get(g.name) or float(g.opening()) > self.spec.pinch_opening:  # type: ignore[operator]
-                continue
-            if positions is None:
-                positions = cloth_nodes(self.client, self.cloth)
             frame = finger_frame(self.client, g.body, g.finger_links, g.ee_link)
-            found = nodes_between_fingers(positions, frame, self.spec.pad_margin)
-            if found.size == 0:
+            if not g.closed():  # type: ignore[operator]
+                self.release(g.name)
+            elif not self.anchors.get(g.name) and float(g.opening()) <= self.spec.pinch_opening:  # type: ignore[operator]
+                self._anchor(g, positions, frame)
+            if not self.spec.pad_contact:
                 continue
+            if self.holding(g.name):
+                passing = True
+            elif g.name in self.passing:
+                margin = self.spec.pad_margin
+                near = nodes_between_fingers(positions, frame, margin, frame.pad_thickness + margin)
+                passing = near.size > 0
+            else:
+                between = nodes_between_fingers(positions, frame, self.spec.pad_margin)
+                passing = bool(g.closed()) and between.size > 0  # type: ignore[operator]
+            self._pass_through(g, passing)
+
+    def _anchor(self, g: GripperHandle, positions: np.ndarray, frame: FingerFrame) -> None:
+        """Anchor the nodes between the closed pads of ``g`` (at most :attr:`ClothSpec.max_anchors`, the
+        nearest to the pads' centre) to its first finger link."""
+        found = nodes_between_fingers(positions, frame, self.spec.pad_margin)
+        if found.size > 0:
             order = np.argsort(np.linalg.norm(positions[found] - frame.center, axis=1))
             chosen = found[order[: self.spec.max_anchors]]
             self.anchors[g.name] = [
@@ -306,11 +359,14 @@ class FoldMeasure:
             onto the xy-plane), divided by half the cloth's area: 1 for a perfect fold in half, 0 flat.
         edge_distance: mean distance (m) between the nodes of the moved edge and the nodes of the opposite
             edge they were laid onto (matched by position along the edge).
+        edge_offset: the same in the xy-plane (m): the moved edge's horizontal miss, whatever the height of
+            what lies between the layers.
         max_height: highest node above the table (m).
     """
 
     double_fraction: float
     edge_distance: float
+    edge_offset: float
     max_height: float
 
 
@@ -358,6 +414,7 @@ def fold_measure(
     return FoldMeasure(
         double_fraction=double,
         edge_distance=float(np.linalg.norm(a - b, axis=1).mean()),
+        edge_offset=float(np.linalg.norm((a - b)[:, :2], axis=1).mean()),
         max_height=float(nodes[:, 2].max()),
     )
 

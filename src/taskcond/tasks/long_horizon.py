@@ -110,16 +110,20 @@ class ClothLongHorizonTask(LongHorizonTask):
     covers, release it, fold the cloth with both arms.
 
     Every trajectory is dual-arm (the Kinova holds still during the Franka's steps). Success: the cloth is
-    folded (:func:`taskcond.tasks.fold.folded`), neither gripper holds anything, and the spatula lies on
-    the cloth: its centre over the xy bounding box of the cloth's nodes and its lowest point less than
-    :data:`SPATULA_ON_CLOTH_HEIGHT` m above the table (on the bottom layer, under the folded one).
+    folded over the spatula (:func:`taskcond.tasks.fold.folded`, the moved edge's miss measured in the
+    xy-plane: the spatula, 39 mm tall on the cloth, holds the top layer up), neither gripper holds anything,
+    and the spatula lies inside the fold: its centre over the xy bounding box of the cloth's nodes, its
+    lowest point less than :data:`SPATULA_ON_CLOTH_HEIGHT` m above the table and not below the median height
+    of the bottom layer's nodes under it (it rests on the cloth), and the top layer's highest node over it
+    higher than its top (it is covered).
     """
 
     def scene_config(self, config: SceneConfig | None) -> SceneConfig | None:
         return dual_arm_config(config)
 
     def extra_success(self, env: KitchenEnv) -> bool:
-        if env.scene.cloth is None or not folded(env):
+        spec = env.scene.config.cloth
+        if env.scene.cloth is None or spec is None or not folded(env, horizontal=True):
             return False
         nodes = env.scene.cloth_nodes()
         lo, hi = env.scene.aabb("spatula")
@@ -127,7 +131,13 @@ class ClothLongHorizonTask(LongHorizonTask):
         over = bool(
             np.all(centre[:2] >= nodes[:, :2].min(axis=0)) and np.all(centre[:2] <= nodes[:, :2].max(axis=0))
         )
-        return over and lo[2] <= SPATULA_ON_CLOTH_HEIGHT
+        n = spec.resolution
+        layers = nodes.reshape(n, n, 3)  # the fold lays rows i < n / 2 (the -x half) over the others
+        top, bottom = layers[: n // 2].reshape(-1, 3), layers[n - n // 2 :].reshape(-1, 3)
+        top, bottom = top[_within(top, lo, hi)], bottom[_within(bottom, lo, hi)]
+        if not over or lo[2] > SPATULA_ON_CLOTH_HEIGHT or top.size == 0 or bottom.size == 0:
+            return False
+        return bool(lo[2] >= np.median(bottom[:, 2]) and top[:, 2].max() > hi[2])
 
     def plans(self, env: KitchenEnv) -> Iterator[DualArmTrajectory]:  # type: ignore[override]
         for step in self.steps:
@@ -141,6 +151,11 @@ class ClothLongHorizonTask(LongHorizonTask):
 
 SPATULA_ON_CLOTH_HEIGHT = 0.02
 """LHT4: metres above the table the spatula's lowest point may be (it lies on the cloth's bottom layer)."""
+
+
+def _within(points: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+    """Mask (k,) of the ``points`` (k, 3) whose xy lies within the xy of the box ``lo`` .. ``hi`` (m)."""
+    return np.all((points[:, :2] >= lo[:2]) & (points[:, :2] <= hi[:2]), axis=1)
 
 
 def lht4() -> ClothLongHorizonTask:
