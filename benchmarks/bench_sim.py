@@ -196,7 +196,7 @@ def timings(task_id: str = "grasp-bottle", n: int = 10) -> dict[str, float]:
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--episodes", type=int, default=100)
+    ap.add_argument("--episodes", type=int, default=100, help="oracle episodes per task of the success table")
     ap.add_argument("--tasks", nargs="*", default=None, help="registry ids (default: all)")
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument(
