@@ -424,7 +424,7 @@ class Executor:
                     continue
                 state = rollout.back_up(back)
                 k -= back
-                shift = self._goal_shift(touch, goal, target if seg.anchor == "target" else None)
+                shift = self._goal_shift(touch, goal, target)
                 goal = goal + np.tile(shift, arms)
                 rollout.set_goal(goal)
                 baseline.add(touch.collision)
@@ -495,7 +495,7 @@ class Executor:
 
     def _goal_shift(self, touch: Touch, goal: np.ndarray, target: np.ndarray | None) -> np.ndarray:
         """Alg. 2 line 11's goal change (3,) for a collision at ``touch``: ``goalPos − collPos`` with the
-        paper's goalPos, the target object's centre (line 3) for a piece aimed at a target, else the goal
+        paper's goalPos, the target object's centre (line 3) for a primitive with a target, else the goal
         of the arm involved (the first arm's if none is), horizontal only and at most
         :attr:`ExecutionConfig.max_goal_shift` long (module doc)."""
         if target is None:

@@ -12,10 +12,13 @@ started from anywhere but the demonstrated start misses the object in height. We
 demonstration where the gripper command changes (the paper keeps the gripper as timed events) and where the
 free-space *approach* ends: at the last standstill before the gripper first touches the target object, or
 before the first gripper event. Each piece is one DMP of the paper's form. The approach piece's goal is
-taken from the environment information (target centre plus the demonstrated offset, Alg. 2 line 3); every
-later piece starts where the previous one ended and keeps its demonstrated displacement (the paper's rule
-for primitives without a target), so contact-rich motions (drawer pulls, lid arcs) replay relative to
-where the hand meets the object.
+taken from the environment information (target centre plus the demonstrated offset, Alg. 2 line 3); a
+carry that never touches its target (move into, on top of, in front of) ends its approach at the last
+standstill before its final movement (over the container, before lowering the object in), so the object
+arrives above its place at the demonstrated height whatever the start. Every later piece starts where the
+previous one ended and keeps its demonstrated displacement (the paper's rule for primitives without a
+target), so contact-rich motions (drawer pulls, lid arcs) replay relative to where the hand meets the
+object.
 
 Several arms (our addition for the paper's dual-arm fold, §IV). A demonstration of k arms moving together
 (shared timing and gripper events, as the fold oracle) stacks their positions into (n, 3k) and their
@@ -222,11 +225,18 @@ def split_points(demo: Demonstration) -> list[int]:
     changes = [k for k in range(1, n) if abs(demo.gripper[k] - demo.gripper[k - 1]) > 1e-9]
     cuts = set(changes)
     first = min([k for k in (demo.target_contact, *changes[:1]) if k > 0], default=-1)
-    if first > 0 and demo.target is not None:
-        velocity = np.gradient(demo.positions, demo.times, axis=0).reshape(n, -1, 3)
-        speed = np.linalg.norm(velocity, axis=2).max(axis=1)  # the fastest arm's
+    if demo.target is None:
+        return sorted(k for k in cuts if MIN_SEGMENT_SAMPLES <= k <= n - MIN_SEGMENT_SAMPLES)
+    velocity = np.gradient(demo.positions, demo.times, axis=0).reshape(n, -1, 3)
+    speed = np.linalg.norm(velocity, axis=2).max(axis=1)  # the fastest arm's
+    if first > 0:
         still = [k for k in range(MIN_SEGMENT_SAMPLES, first + 1) if speed[k] < STANDSTILL]
         cuts.add(still[-1] if still else first)
+    else:  # a carry that never touches its target: the approach ends before the last movement
+        moving = speed >= STANDSTILL
+        still = [k for k in range(MIN_SEGMENT_SAMPLES, n) if not moving[k] and moving[k + 1 :].any()]
+        if still:
+            cuts.add(still[-1])
     return sorted(k for k in cuts if MIN_SEGMENT_SAMPLES <= k <= n - MIN_SEGMENT_SAMPLES)
 
 
