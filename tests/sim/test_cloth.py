@@ -165,9 +165,9 @@ def _sweep_open_fingers(env) -> float:
     flat = env.scene.cloth_nodes()
     orientation = np.array(top_down(np.pi / 2))
     start = np.array([flat[:, 0].min() - 0.04, flat[:, 1].mean() - 0.06, 0.015])
-    for k in range(60):
-        z = 0.1 if k < 20 else 0.0
-        ahead = max(0, k - 40) / 20 * 0.08
+    for k in range(45):
+        z = 0.1 if k < 10 else 0.0
+        ahead = max(0, k - 20) / 25 * 0.08
         env.step(np.concatenate([start + np.array([ahead, 0.0, z]), orientation, [0.0]]))
     return float((env.scene.cloth_nodes() - flat)[:, 0].mean())
 
