@@ -8,7 +8,8 @@ faces the robots; its ``-y`` end is the Franka's side, its ``+y`` end the Kinova
 Fold oracle (scripted, dual-arm): the Franka takes the near edge's ``-y`` corner and the Kinova its ``+y``
 corner, both top-down with the fingers closing across the edge; both lift the edge, carry it over the fold
 line on a half-ellipse and lay it onto the far (``+x``) edge, then let go and rise. Timing is shared, so
-the edge stays straight.
+the edge stays straight. With an object lying on the cloth (LHT4's spatula), the edge is laid beyond the
+far edge by :data:`OVERSHOOT` times the object's height, as the top layer draped over it springs back.
 
 Fold success, measured on the simulation mesh (:func:`taskcond.sim.cloth.fold_measure`): at least
 :data:`MIN_DOUBLE_FRACTION` of half the cloth's area is covered by two layers, the moved edge lies on the
@@ -57,8 +58,9 @@ PLACE_Z = 0.012
 OVERSHOOT = 0.5
 """The fold lays the moved edge this many times the height of the tallest object lying on the cloth
 (:func:`height_on_cloth`) beyond the far edge: the top layer draped over the object springs back once let
-go (LHT4, 3 seeds: the edge 13-14 mm off horizontally with 0.5; 23-33 mm without; with 1.0 the pulled
-cloth tipped the spatula over in 1 of 3)."""
+go. Measured on LHT4 (spatula at :data:`SPATULA_ON_CLOTH` 0.3, seeds 0-2): the edge 13-14 mm off
+horizontally with 0.5; with the spatula at 0.2: 26-33 mm without overshoot (seeds 2-4), and with 1.0 the
+pulled cloth tipped the spatula over (seed 1 of 0-2)."""
 CLOTH_LIFT = 0.05
 """Grasp cloth success: the highest cloth node is at least this high (m) above the table."""
 
