@@ -157,6 +157,35 @@ def test_render_and_action_forms(env):
         env.step(np.zeros(5))
 
 
+@pytest.mark.parametrize("task_id", ["grasp-spatula", "tilt-bottle"])
+def test_ik_is_submillimetre_along_oracle_targets(task_id):
+    """The Franka IK, chained along the oracle's first trajectory (each call seeded with the previous
+    solution, as ``KitchenEnv.step`` does), reaches every target within 0.5 mm and 0.1° inside the joint
+    limits. PyBullet's default damping (0.5) with 100 iterations missed the spatula's descent by up to
+    7.6 mm and the bottle's by 3.9 mm and 0.9°."""
+    e = make(task_id, seed=0)
+    try:
+        e.reset()
+        trajectory = next(iter(e.task.plans(e)))
+        robot = e.robot
+        q = robot.joint_positions()
+        positions, targets, angles = [], [], []
+        for i in range(len(trajectory)):
+            action = trajectory.action(i)
+            orientation = action[3:7] / np.linalg.norm(action[3:7])
+            q = robot.ik(action[:3], orientation, seed=q)
+            assert np.all((robot.lower <= q) & (q <= robot.upper))
+            pose = robot.fk(q)
+            positions.append(pose.position)
+            targets.append(action[:3])
+            angles.append(2 * np.arccos(min(1.0, abs(float(np.dot(pose.orientation, orientation))))))
+    finally:
+        e.close()
+    assert len(targets) > 50
+    np.testing.assert_allclose(positions, targets, rtol=0, atol=5e-4)
+    np.testing.assert_allclose(angles, 0.0, rtol=0, atol=np.radians(0.1))
+
+
 def test_blowup_ends_episode_with_reason(env):
     env.reset(seed=0)
     env.scene.place("bottle", (0.4, 0.0), 0.0, z=-5.0)

@@ -28,6 +28,18 @@ FINGER_FORCE = 40.0
 """Force (N) of each finger's position motor; the grasp force on an object."""
 FINGER_OPEN = 0.04
 """Finger joint position (m) of the open gripper; the opening between the pads is twice this."""
+IK_DAMPING = (1e-3,) * 9
+"""Damping of PyBullet's damped least squares IK per degree of freedom (the 7 arm joints and the 2 fingers,
+whose Jacobian columns are zero). PyBullet's default, 0.5 (measured: identical solutions), converges slowly:
+on 7,600 targets logged from oracle episodes of 13 tasks, seeded with the previous solution, 100 iterations
+took 166 µs per call and left 7.2 mm (99th percentile) position error on the reachable targets; 1e-3 takes
+12 µs with 0.07 mm and 0.009° orientation error (99th percentiles). Smaller values (1e-4) overshoot at the
+edge of the reach (up to 48 mm off where 1e-3 is 28 mm off)."""
+IK_MAX_ITERATIONS = 20
+"""Iteration cap of :meth:`Franka.ik`; most calls stop earlier at :data:`IK_RESIDUAL` (same logged targets:
+12.2 µs per call with a cap of 10, 12.3 µs with 20, whose tail error is lower)."""
+IK_RESIDUAL = 1e-5
+"""Position error (m) at which PyBullet's IK stops iterating (it checks the position only)."""
 
 TOP_DOWN = (1.0, 0.0, 0.0, 0.0)
 """End-effector orientation (xyzw) pointing straight down, fingers closing along world y."""
@@ -125,9 +137,10 @@ class Franka:
     # ------------------------------------------------------------------------------------- control
     def ik(self, position: np.ndarray, orientation: np.ndarray, seed: np.ndarray | None = None) -> np.ndarray:
         """Joint positions (7,) rad putting the end effector at ``position`` (3,) m with ``orientation``
-        (4,) xyzw, world frame; plain damped least squares IK (100 iterations) started from ``seed`` (default
-        the current joints), clipped to the joint limits. PyBullet's IK measures targets from the base's
-        centre of mass, not its link frame, so the target is shifted by that offset."""
+        (4,) xyzw, world frame; damped least squares IK (:data:`IK_DAMPING`, at most :data:`IK_MAX_ITERATIONS`
+        iterations) started from ``seed`` (default the current joints), clipped to the joint limits.
+        PyBullet's IK measures targets from the base's centre of mass, not its link frame, so the target is
+        shifted by that offset."""
         seed = self.joint_positions() if seed is None else np.asarray(seed, dtype=float)
         q = p.calculateInverseKinematics(
             self.body,
@@ -135,8 +148,9 @@ class Franka:
             (np.asarray(position, dtype=float) - self._ik_bias).tolist(),
             np.asarray(orientation, dtype=float).tolist(),
             currentPositions=[*seed.tolist(), 0.0, 0.0],
-            maxNumIterations=100,
-            residualThreshold=1e-5,
+            jointDamping=IK_DAMPING,
+            maxNumIterations=IK_MAX_ITERATIONS,
+            residualThreshold=IK_RESIDUAL,
             physicsClientId=self.client,
         )
         return np.minimum(np.maximum(q[:7], self.lower), self.upper)  # np.clip's result, faster
