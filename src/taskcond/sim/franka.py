@@ -104,6 +104,10 @@ class Franka:
             )
         self._ik_bias = np.array(p.getDynamicsInfo(self.body, -1, physicsClientId=client)[3])
         self.gripper_closed = False
+        self._arm_targets: list[float] | None = None
+        """Arm joint targets (rad) last sent to the motors by :meth:`command`."""
+        self._finger_target: float | None = None
+        """Finger joint target (m) last sent to the motors by :meth:`command`."""
         self.reset(HOME)
 
     @property
@@ -168,18 +172,25 @@ class Franka:
 
     def command(self, q: np.ndarray, closed: bool) -> None:
         """Position targets: arm joints ``q`` (7,) rad; gripper closed (pads pushed together with
-        :data:`FINGER_FORCE`) or open."""
-        p.setJointMotorControlArray(
-            self.body,
-            ARM_JOINTS,
-            p.POSITION_CONTROL,
-            targetPositions=q.tolist(),
-            forces=ARM_FORCES,
-            positionGains=[0.1] * 7,
-            physicsClientId=self.client,
-        )
+        :data:`FINGER_FORCE`) or open. Bullet keeps a motor's settings until they are set again, so
+        targets equal to the last ones sent are not sent again."""
+        targets = q.tolist()
+        if targets != self._arm_targets:
+            p.setJointMotorControlArray(
+                self.body,
+                ARM_JOINTS,
+                p.POSITION_CONTROL,
+                targetPositions=targets,
+                forces=ARM_FORCES,
+                positionGains=[0.1] * 7,
+                physicsClientId=self.client,
+            )
+            self._arm_targets = targets
         self.gripper_closed = closed
         target = 0.0 if closed else FINGER_OPEN
+        if target == self._finger_target:
+            return
+        self._finger_target = target
         p.setJointMotorControlArray(
             self.body,
             FINGER_JOINTS,
