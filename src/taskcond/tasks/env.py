@@ -2,7 +2,8 @@
 
 Action (8,) float: end-effector target position xyz (m, world frame), orientation quaternion xyzw, gripper
 command (< 0.5 open, ≥ 0.5 closed); a (7,) action gives the orientation as roll-pitch-yaw (rad) instead.
-Each step converts the target to joint positions with PyBullet IK (§III-E) and runs
+Each step converts the target to joint positions with PyBullet IK (§III-E; a target equal to the previous
+step's keeps its solution) and runs
 :attr:`KitchenEnv.substeps` physics steps of 1/240 s under position control.
 
 Observation (dict of float arrays): ``ee_position`` (3,), ``ee_orientation`` (4,), ``gripper_width``
@@ -131,6 +132,8 @@ class KitchenEnv(gym.Env):
         self.failure: str | None = None
         self.failure_detail: str | None = None
         self._q = np.array(HOME)
+        self._q_target: tuple[float, ...] | None = None
+        """End-effector target (position, unit quaternion) whose IK solution :attr:`_q` is, or ``None``."""
         self._kq = np.array(GEN3_HOME)
         self._k_target: np.ndarray | None = None
         self._seed = seed
@@ -181,7 +184,7 @@ class KitchenEnv(gym.Env):
         for name in ARTICULATED:
             self.scene.set_joint(name, 0.0)
         self.robot.reset(HOME)
-        self._q = np.array(HOME)
+        self._q, self._q_target = np.array(HOME), None
         if self.kinova is not None:
             self.kinova.reset_home()
             self._kq, self._k_target = np.array(GEN3_HOME), None
@@ -212,7 +215,13 @@ class KitchenEnv(gym.Env):
         if self.failure is None and kinova_action is not None:
             self._command_kinova(kinova_action)
         if self.failure is None:
-            self._q = self.robot.ik(action[:3], orn, seed=self._q)
+            # Solving an unchanged target again from its solution moved the end effector by < 2 µm (99th
+            # percentile of 7,100 reachable targets logged from oracle episodes); beyond the joint limits it
+            # only crept along them (up to 5 mm per call), so the solution is kept.
+            target = (*action[:3].tolist(), *orn.tolist())
+            if target != self._q_target:
+                self._q = self.robot.ik(action[:3], orn, seed=self._q)
+                self._q_target = target
             self.robot.command(self._q, closed=bool(action[7] >= 0.5))
             for _ in range(self.substeps):
                 p.stepSimulation(physicsClientId=self.scene.client)
@@ -303,7 +312,7 @@ class KitchenEnv(gym.Env):
         q = self.robot.ik(ee, orn, seed=q)
         self.robot.reset(q, finger=grasp.width / 2 + 0.002)
         self.robot.command(q, closed=True)
-        self._q = q
+        self._q, self._q_target = q, None
         self.settle(0.3)
 
     def home_pose(self) -> tuple[np.ndarray, np.ndarray]:
