@@ -6,10 +6,12 @@ Measures, and prints as a markdown table:
   PyBullet stepping the same bodies in the same client with the same motor commands, side by side: medians
   and the spread of the env/raw ratio over ``--repeats`` repetitions (:func:`throughput`);
 * reset time, camera time per 320×240 observation, resident memory per environment;
-* oracle success rates over ``--episodes`` seeded episodes per task.
+* oracle success rates over ``--episodes`` seeded episodes per task;
+* with ``--ik`` instead of all that: time and accuracy of the Franka IK's settings on the targets of oracle
+  episodes (:func:`ik_accuracy`).
 
 Usage: ``python benchmarks/bench_sim.py [--episodes 100] [--tasks grasp-bottle LHT1 ...]``;
-``--throughput-only`` prints the throughput table alone.
+``--throughput-only`` prints the throughput table alone; ``--ik`` the IK table alone.
 """
 
 from __future__ import annotations
@@ -23,8 +25,9 @@ from dataclasses import dataclass
 import numpy as np
 import pybullet as p
 
+from taskcond.sim.franka import IK_DAMPING, IK_MAX_ITERATIONS, PYBULLET_IK_DAMPING, Franka
 from taskcond.tasks.env import KitchenEnv
-from taskcond.tasks.oracle import run_oracle
+from taskcond.tasks.oracle import run_episode, run_oracle
 from taskcond.tasks.registry import make, task_ids
 
 
@@ -177,6 +180,168 @@ def print_throughput(results: list[Throughput]) -> None:
         )
 
 
+IK_TASKS = (
+    "grasp-bottle",
+    "grasp-spatula",
+    "open-top_drawer",
+    "open-box",
+    "close-microwave",
+    "tilt-bottle",
+    "move_into-bowl-top_drawer",
+    "move_into-bowl-bottom_drawer",
+    "move_into-toothpaste-mug",
+    "move_on_top-spatula-box",
+    "LHT1",
+    "LHT2",
+    "LHT3",
+)
+"""Tasks whose oracle episodes give the IK targets of :func:`ik_accuracy`."""
+IK_SETTINGS = {
+    f"PyBullet default damping {PYBULLET_IK_DAMPING[0]}, 100 iterations": (PYBULLET_IK_DAMPING, 100),
+    f"damping {IK_DAMPING[0]:g}, {IK_MAX_ITERATIONS} iterations (used)": (IK_DAMPING, IK_MAX_ITERATIONS),
+}
+"""IK settings compared by :func:`ik_accuracy`: name → (damping per degree of freedom, iteration cap)."""
+
+
+@dataclass(frozen=True)
+class IkCall:
+    """One call of ``Franka.ik`` in an oracle episode: target ``position`` (3,) m and unit ``orientation``
+    (4,) xyzw (world frame), the ``seed`` joints (7,) rad, and whether the seed was the previous call's
+    solution (``chained``; ``KitchenEnv.step`` seeds with the last solution)."""
+
+    position: np.ndarray
+    orientation: np.ndarray
+    seed: np.ndarray
+    chained: bool
+
+
+class _IkRecorder:
+    """Stands in for ``robot.ik`` of one environment: solves with it and appends every call to ``calls``."""
+
+    def __init__(self, env: KitchenEnv, calls: list[IkCall]) -> None:
+        self.robot, self.solve, self.calls = env.robot, env.robot.ik, calls
+        self.last: np.ndarray | None = None
+
+    def __call__(
+        self, position: np.ndarray, orientation: np.ndarray, seed: np.ndarray | None = None
+    ) -> np.ndarray:
+        start = self.robot.joint_positions() if seed is None else np.asarray(seed, dtype=float)
+        chained = self.last is not None and np.array_equal(start, self.last)
+        orientation = np.asarray(orientation, dtype=float)
+        orientation = orientation / np.linalg.norm(orientation)
+        self.calls.append(IkCall(np.array(position, dtype=float), orientation, start.copy(), chained))
+        self.last = self.solve(position, orientation, start)
+        return self.last
+
+
+def record_ik_calls(tasks: tuple[str, ...] = IK_TASKS, episodes: int = 2) -> list[IkCall]:
+    """Every ``Franka.ik`` call of the oracle episodes (seeds ``0 .. episodes - 1``) of ``tasks``."""
+    calls: list[IkCall] = []
+    for task_id in tasks:
+        env = make(task_id)
+        env.robot.ik = _IkRecorder(env, calls)  # type: ignore[method-assign]
+        for seed in range(episodes):
+            run_episode(env, seed)
+        env.close()
+    return calls
+
+
+@dataclass(frozen=True)
+class IkAccuracy:
+    """Time and accuracy of one IK setting over recorded calls.
+
+    Attributes:
+        setting: name (see :data:`IK_SETTINGS`).
+        us_per_call: median over repetitions of the CPU time per call, µs.
+        position_mm: 50th, 99th percentile and maximum of the end-effector position error (m → mm) over the
+            targets that no setting's solution has at a joint limit (some of them are beyond the arm's reach).
+        orientation_deg: the same of the orientation error (rotation angle, degrees).
+        met: of those targets, how many this setting's solution meets within :data:`IK_MET` (mm, °).
+        at_limit: calls whose solution this setting clipped to a joint limit.
+    """
+
+    setting: str
+    us_per_call: float
+    position_mm: tuple[float, float, float]
+    orientation_deg: tuple[float, float, float]
+    met: int
+    at_limit: int
+
+
+IK_MET = (1.0, 0.1)
+"""Position (mm) and orientation (°) error within which :class:`IkAccuracy` counts a target as met."""
+
+
+def ik_accuracy(calls: list[IkCall], repeats: int = 3) -> tuple[list[IkAccuracy], int]:
+    """Solve the recorded ``calls`` with every setting of :data:`IK_SETTINGS` in a fresh client, in order;
+    a chained call is seeded with the setting's own previous solution, the others with the recorded seed.
+    Returns the result per setting and the number of targets no setting's solution has at a joint limit."""
+    client = p.connect(p.DIRECT)
+    robot = Franka(client)
+    solutions: dict[str, list[np.ndarray]] = {}
+    times: dict[str, float] = {}
+    for name, (damping, iterations) in IK_SETTINGS.items():
+        cpu = []
+        for _ in range(repeats):
+            qs: list[np.ndarray] = []
+            start = time.thread_time()
+            for call in calls:
+                seed = qs[-1] if call.chained and qs else call.seed
+                qs.append(robot.ik(call.position, call.orientation, seed, damping, iterations))
+            cpu.append(time.thread_time() - start)
+        solutions[name], times[name] = qs, 1e6 * statistics.median(cpu) / len(calls)
+    at_limit = {
+        name: np.array([np.any((q <= robot.lower) | (q >= robot.upper)) for q in qs])
+        for name, qs in solutions.items()
+    }
+    inside = ~np.any(list(at_limit.values()), axis=0)
+    results = []
+    for name, qs in solutions.items():
+        position, angle = [], []
+        for call, q in zip(calls, qs, strict=True):
+            pose = robot.fk(q)
+            position.append(1000 * np.linalg.norm(pose.position - call.position))
+            # PyBullet's link quaternions are unit to about 1e-8, which alone reads as 0.01°
+            unit = pose.orientation / np.linalg.norm(pose.orientation)
+            dot = min(1.0, abs(float(np.dot(unit, call.orientation))))
+            angle.append(np.degrees(2 * np.arccos(dot)))
+        pos, ang = np.array(position)[inside], np.array(angle)[inside]
+        results.append(
+            IkAccuracy(
+                name,
+                times[name],
+                (float(np.median(pos)), float(np.percentile(pos, 99)), float(pos.max())),
+                (float(np.median(ang)), float(np.percentile(ang, 99)), float(ang.max())),
+                int(np.sum((pos <= IK_MET[0]) & (ang <= IK_MET[1]))),
+                int(at_limit[name].sum()),
+            )
+        )
+    p.disconnect(client)
+    return results, int(inside.sum())
+
+
+def print_ik(calls: list[IkCall], results: list[IkAccuracy], inside: int) -> None:
+    """Markdown table of :func:`ik_accuracy`'s results."""
+    print(
+        f"{len(calls)} IK calls of oracle episodes (seeds 0-1) of {len(IK_TASKS)} tasks; errors over the "
+        f"{inside} whose solution no setting has at a joint limit:\n"
+    )
+    print(
+        "| IK setting | CPU time per call | position error p50 / p99 / max "
+        f"| orientation error p50 / p99 / max | within {IK_MET[0]:g} mm and {IK_MET[1]:g}° "
+        "| solutions at a joint limit |"
+    )
+    print("|---|---|---|---|---|---|")
+    for r in results:
+        pos, ang = r.position_mm, r.orientation_deg
+        print(
+            f"| {r.setting} | {r.us_per_call:.1f} µs | {pos[0]:.4f} / {pos[1]:.3f} / {pos[2]:.1f} mm "
+            f"| {ang[0]:.5f} / {ang[1]:.4f} / {ang[2]:.2f}° | {r.met} ({100 * r.met / inside:.1f}%) "
+            f"| {r.at_limit} |",
+            flush=True,
+        )
+
+
 def timings(task_id: str = "grasp-bottle", n: int = 10) -> dict[str, float]:
     before = _rss_mb()
     env = make(task_id, seed=0, render_mode="rgb_array")
@@ -213,8 +378,17 @@ def main() -> None:
         action="store_true",
         help="print the throughput table only (no reset/camera/memory timings, no oracle episodes)",
     )
+    ap.add_argument(
+        "--ik",
+        action="store_true",
+        help="print the IK time/accuracy table only (targets of oracle episodes, seeds 0-1, of IK_TASKS)",
+    )
     args = ap.parse_args()
 
+    if args.ik:
+        calls = record_ik_calls()
+        print_ik(calls, *ik_accuracy(calls))
+        return
     results = [throughput(t, repeats=args.repeats) for t in THROUGHPUT_TASKS]
     results += [episode_throughput(t, args.throughput_episodes) for t in THROUGHPUT_TASKS]
     print_throughput(results)

@@ -178,7 +178,8 @@ def test_ik_is_submillimetre_along_oracle_targets(task_id):
             pose = robot.fk(q)
             positions.append(pose.position)
             targets.append(action[:3])
-            angles.append(2 * np.arccos(min(1.0, abs(float(np.dot(pose.orientation, orientation))))))
+            unit = pose.orientation / np.linalg.norm(pose.orientation)  # PyBullet's: unit to about 1e-8
+            angles.append(2 * np.arccos(min(1.0, abs(float(np.dot(unit, orientation))))))
     finally:
         e.close()
     assert len(targets) > 50

@@ -30,13 +30,19 @@ FINGER_OPEN = 0.04
 """Finger joint position (m) of the open gripper; the opening between the pads is twice this."""
 IK_DAMPING = (1e-3,) * 9
 """Damping of PyBullet's damped least squares IK per degree of freedom (the 7 arm joints and the 2 fingers,
-whose Jacobian columns are zero). PyBullet's default, 0.5 (measured: identical solutions), converges slowly:
-on 7,600 targets logged from oracle episodes of 13 tasks, seeded with the previous solution, 100 iterations
-took 166 µs per call and left 7.2 mm (99th percentile) position error on the reachable targets; 1e-3 takes
-12 µs with 0.07 mm and 0.009° orientation error (99th percentiles). Smaller values (1e-4) overshoot at the
-edge of the reach (up to 48 mm off where 1e-3 is 28 mm off)."""
+whose Jacobian columns are zero). PyBullet's default, :data:`PYBULLET_IK_DAMPING`, converges slowly. On the
+6,251 IK calls of two oracle episodes of each of 13 tasks, each seeded with the previous solution
+(``benchmarks/bench_sim.py --ik``), the default with 100 iterations took 200 µs per call and met 96.0% of
+the targets inside the joint limits within 1 mm and 0.1° (99th percentile of the position error 11.8 mm);
+1e-3 with at most :data:`IK_MAX_ITERATIONS` iterations takes 14-23 µs (load-dependent) and meets 99.1%
+(99th percentiles 0.35 mm and 0.06°); the rest, missed by both, are LHT1's approach to the box lid at
+x ≈ 0.75 m, beyond the arm's reach in that orientation. Smaller damping (1e-4) overshoots
+at the edge of the reach: up to 48 mm off where 1e-3 is 28 mm off, on 7,600 targets logged with the old
+setting."""
+PYBULLET_IK_DAMPING = (0.5,) * 9
+"""PyBullet's IK damping when ``jointDamping`` is not given (measured: identical solutions)."""
 IK_MAX_ITERATIONS = 20
-"""Iteration cap of :meth:`Franka.ik`; most calls stop earlier at :data:`IK_RESIDUAL` (same logged targets:
+"""Iteration cap of :meth:`Franka.ik`; most calls stop earlier at :data:`IK_RESIDUAL` (7,600 logged targets:
 12.2 µs per call with a cap of 10, 12.3 µs with 20, whose tail error is lower)."""
 IK_RESIDUAL = 1e-5
 """Position error (m) at which PyBullet's IK stops iterating (it checks the position only)."""
@@ -139,12 +145,20 @@ class Franka:
         self.command(np.asarray(q, dtype=float), closed=finger < FINGER_OPEN / 2)
 
     # ------------------------------------------------------------------------------------- control
-    def ik(self, position: np.ndarray, orientation: np.ndarray, seed: np.ndarray | None = None) -> np.ndarray:
+    def ik(
+        self,
+        position: np.ndarray,
+        orientation: np.ndarray,
+        seed: np.ndarray | None = None,
+        damping: tuple[float, ...] = IK_DAMPING,
+        max_iterations: int = IK_MAX_ITERATIONS,
+    ) -> np.ndarray:
         """Joint positions (7,) rad putting the end effector at ``position`` (3,) m with ``orientation``
-        (4,) xyzw, world frame; damped least squares IK (:data:`IK_DAMPING`, at most :data:`IK_MAX_ITERATIONS`
-        iterations) started from ``seed`` (default the current joints), clipped to the joint limits.
-        PyBullet's IK measures targets from the base's centre of mass, not its link frame, so the target is
-        shifted by that offset."""
+        (4,) xyzw, world frame; damped least squares IK (``damping`` per degree of freedom, at most
+        ``max_iterations`` iterations; the defaults are the measured :data:`IK_DAMPING` and
+        :data:`IK_MAX_ITERATIONS`) started from ``seed`` (default the current joints), clipped to the joint
+        limits. PyBullet's IK measures targets from the base's centre of mass, not its link frame, so the
+        target is shifted by that offset."""
         seed = self.joint_positions() if seed is None else np.asarray(seed, dtype=float)
         q = p.calculateInverseKinematics(
             self.body,
@@ -152,8 +166,8 @@ class Franka:
             (np.asarray(position, dtype=float) - self._ik_bias).tolist(),
             np.asarray(orientation, dtype=float).tolist(),
             currentPositions=[*seed.tolist(), 0.0, 0.0],
-            jointDamping=IK_DAMPING,
-            maxNumIterations=IK_MAX_ITERATIONS,
+            jointDamping=damping,
+            maxNumIterations=max_iterations,
             residualThreshold=IK_RESIDUAL,
             physicsClientId=self.client,
         )
