@@ -32,7 +32,7 @@ IK_DAMPING = (1e-3,) * 9
 """Damping of PyBullet's damped least squares IK per degree of freedom (the 7 arm joints and the 2 fingers,
 whose Jacobian columns are zero). PyBullet's default, :data:`PYBULLET_IK_DAMPING`, converges slowly. On the
 6,251 IK calls of two oracle episodes of each of 13 tasks, each seeded with the previous solution
-(``benchmarks/bench_sim.py --ik``), the default with 100 iterations took 200 µs per call and met 96.0% of
+(``benchmarks/bench_sim.py --ik``), the default with 100 iterations took 200-220 µs per call and met 96.0% of
 the targets inside the joint limits within 1 mm and 0.1° (99th percentile of the position error 11.8 mm);
 1e-3 with at most :data:`IK_MAX_ITERATIONS` iterations takes 14-23 µs (load-dependent) and meets 99.1%
 (99th percentiles 0.35 mm and 0.06°); the rest, missed by both, are LHT1's approach to the box lid at
