@@ -8,6 +8,7 @@ end-effector point is the ``panda_grasptarget`` link, about 1 cm above the finge
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -132,8 +133,15 @@ class Franka:
         return float(states[0][0] + states[1][0])
 
     def ee_pose(self) -> EEPose:
-        state = p.getLinkState(self.body, EE_LINK, computeForwardKinematics=True, physicsClientId=self.client)
-        return EEPose(np.array(state[4]), np.array(state[5]))
+        position, orientation = self.ee_frame()
+        return EEPose(np.array(position), np.array(orientation))
+
+    def ee_frame(self) -> tuple[tuple[float, float, float], tuple[float, float, float, float]]:
+        """End-effector position (m) and quaternion (xyzw), world frame, as PyBullet reports them (forward
+        kinematics of the current joints); :meth:`ee_pose` as tuples."""
+        # positional: (body, link, computeLinkVelocity, computeForwardKinematics, physicsClientId)
+        state = p.getLinkState(self.body, EE_LINK, 0, 1, self.client)
+        return state[4], state[5]
 
     def reset(self, q: tuple[float, ...] | np.ndarray, finger: float = FINGER_OPEN) -> None:
         """Set the arm to ``q`` (7,) rad and the fingers to ``finger`` m at rest (episode reset only) and
@@ -147,8 +155,8 @@ class Franka:
     # ------------------------------------------------------------------------------------- control
     def ik(
         self,
-        position: np.ndarray,
-        orientation: np.ndarray,
+        position: np.ndarray | Sequence[float],
+        orientation: np.ndarray | Sequence[float],
         seed: np.ndarray | None = None,
         damping: tuple[float, ...] = IK_DAMPING,
         max_iterations: int = IK_MAX_ITERATIONS,

@@ -43,6 +43,8 @@ GRIPPER = "gripper"
 """Name of the Franka's gripper in conditions (the single-arm name)."""
 KINOVA_GRIPPER = "kinova gripper"
 """Name of the Kinova's gripper in conditions."""
+FramePose = tuple[tuple[float, float, float], tuple[float, float, float, float]]
+"""A pose as PyBullet returns it: position (m) and quaternion (xyzw)."""
 
 
 @dataclass(frozen=True)
@@ -141,10 +143,12 @@ class WorldInterior:
 
     def contains(self, point: np.ndarray, margin: float = 0.0) -> bool:
         """Whether ``point`` (3,) world lies inside, grown by ``margin`` m on every side."""
-        local = self.rotation.T @ (np.asarray(point) - self.center)
-        if self.round and math.hypot(local[0], local[1]) > self.half_extents[0] + margin:
+        x, y, z = (self.rotation.T @ (np.asarray(point) - self.center)).tolist()
+        hx, hy, hz = self.half_extents.tolist()
+        if self.round and math.hypot(x, y) > hx + margin:
             return False
-        return bool((np.abs(local) <= self.half_extents + margin).all())
+        # element by element, the same float operations as numpy's abs, add and compare
+        return abs(x) <= hx + margin and abs(y) <= hy + margin and abs(z) <= hz + margin
 
 
 class KitchenScene:
@@ -177,7 +181,7 @@ class KitchenScene:
             p.configureDebugVisualizer(p.COV_ENABLE_GUI, 0, physicsClientId=self.client)
         cfg = self.config
         self.bodies: dict[str, int] = {}
-        self._inertial_inverse: dict[int, tuple] = {}
+        self._inertial_inverse: dict[int, FramePose] = {}
         self._fixed_interiors: dict[str, WorldInterior] = {}
         self.links: dict[str, int] = {}
         self.interiors: dict[str, Interior] = {}
@@ -198,6 +202,7 @@ class KitchenScene:
         self.joints["microwave"] = ContainerJoint(
             "microwave", self.bodies["microwave"], 0, 0.0, cfg.microwave.open_angle, 0.5
         )
+        self._container_reads = self._plan_container_reads()
         friction = {"bottom drawer": 3.0, "top drawer": 3.0, "box": 0.01, "microwave": 0.3}
         for name, joint in self.joints.items():
             p.setJointMotorControl2(
@@ -241,6 +246,25 @@ class KitchenScene:
             # The free objects collide with the cloth; one resting on it (the spatula of LHT4) blows the
             # soft contact up within a second at one sub-step per 240 Hz step, and is stable from two.
             p.setPhysicsEngineParameter(numSubSteps=cfg.cloth.substeps, physicsClientId=self.client)
+
+    def _plan_container_reads(self) -> list[tuple[int, tuple[int, ...], tuple[tuple[float, float], ...]]]:
+        """The joint queries of :meth:`open_fractions`: per body, in :data:`ARTICULATED` order, its container
+        joints and each one's closed position and range (open minus closed position, m or rad)."""
+        groups: dict[int, list[ContainerJoint]] = {}
+        for name in ARTICULATED:
+            joint = self.joints[name]
+            groups.setdefault(joint.body_id, []).append(joint)
+        order = [j.name for joints in groups.values() for j in joints]
+        if order != list(ARTICULATED):
+            raise ValueError(f"ARTICULATED lists a body's containers apart: {ARTICULATED}")
+        return [
+            (
+                body,
+                tuple(j.joint_index for j in joints),
+                tuple((j.closed_position, j.open_position - j.closed_position) for j in joints),
+            )
+            for body, joints in groups.items()
+        ]
 
     def _grip_handles(self) -> list[GripperHandle]:
         robot = self.robot
@@ -343,15 +367,21 @@ class KitchenScene:
 
     def base_frame(
         self, body: int, com_position: Sequence[float], com_orientation: Sequence[float]
-    ) -> tuple[tuple[float, float, float], tuple[float, float, float, float]]:
+    ) -> FramePose:
         """World pose (position m, quaternion xyzw) of ``body``'s URDF base-link frame, given the pose of its
         centre-of-mass frame as ``p.getBasePositionAndOrientation`` reports it (the offset is constant per
         body and cached)."""
+        inv = self.com_to_base(body)
+        return p.multiplyTransforms(com_position, com_orientation, inv[0], inv[1])
+
+    def com_to_base(self, body: int) -> FramePose:
+        """Pose (position m, quaternion xyzw) of ``body``'s URDF base-link frame in its centre-of-mass frame:
+        the transform :meth:`base_frame` applies (constant per body, cached)."""
         inv = self._inertial_inverse.get(body)
         if inv is None:
             local = p.getDynamicsInfo(body, -1, physicsClientId=self.client)[3]
             inv = self._inertial_inverse[body] = p.invertTransform(local, (0, 0, 0, 1))
-        return p.multiplyTransforms(com_position, com_orientation, inv[0], inv[1])
+        return inv
 
     def aabb(self, name: str) -> tuple[np.ndarray, np.ndarray]:
         """World axis-aligned bounding box (min (3,), max (3,)) of a named body or link."""
@@ -367,6 +397,16 @@ class KitchenScene:
         """How far open a container is: 0 closed, 1 fully open."""
         j = self.joints[container]
         return (self.joint_position(container) - j.closed_position) / (j.open_position - j.closed_position)
+
+    def open_fractions(self) -> list[float]:
+        """:meth:`open_fraction` of every container of :data:`ARTICULATED`, in that order, from one joint
+        query per body (the cabinet's two drawers together)."""
+        client = self.client
+        fractions: list[float] = []
+        for body, joint_indices, ranges in self._container_reads:
+            states = p.getJointStates(body, joint_indices, client)
+            fractions += [(s[0] - closed) / span for s, (closed, span) in zip(states, ranges, strict=True)]
+        return fractions
 
     def interior(self, container: str) -> WorldInterior:
         """A container's interior volume in the world frame, following its link (drawer, vessel). The interior

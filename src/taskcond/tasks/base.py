@@ -73,7 +73,7 @@ class Task:
 
     def success(self, env: KitchenEnv) -> bool:
         """Ground-truth success: every post-condition holds and :meth:`extra_success`."""
-        return all(env.truth.holds(c) for c in self.post_conditions()) and self.extra_success(env)
+        return all(map(env.truth.holds, self.post_conditions())) and self.extra_success(env)
 
     def plans(self, env: KitchenEnv) -> Iterator[Trajectory]:
         """The scripted oracle: end-effector trajectories to execute one after the other, each planned

@@ -48,7 +48,7 @@ from gymnasium import spaces
 
 from taskcond.sim.franka import ARM_JOINTS, FINGER_JOINTS, HOME, top_down
 from taskcond.sim.kinova import GEN3_HOME
-from taskcond.sim.scene import ARTICULATED, PHYSICS_HZ, KitchenScene, SceneConfig
+from taskcond.sim.scene import ARTICULATED, PHYSICS_HZ, FramePose, KitchenScene, SceneConfig
 from taskcond.tasks.base import Task
 from taskcond.tasks.groundtruth import GroundTruth
 
@@ -79,14 +79,16 @@ class _Reading(NamedTuple):
     """The simulator state read once after a control step, shared by the blow-up check and the observation.
 
     Attributes:
-        joints: ``p.getJointStates`` of :data:`_ROBOT_JOINTS` (position rad or m, velocity, ...).
+        arm: positions (rad) of the Franka's :data:`~taskcond.sim.franka.ARM_JOINTS`.
+        fingers: positions (m) of its two :data:`~taskcond.sim.franka.FINGER_JOINTS`.
         bases: centre-of-mass pose (position m, quaternion xyzw, world) of each free object, in the order of
             :attr:`KitchenEnv.object_names`, as ``p.getBasePositionAndOrientation`` reports it.
         cloth_nodes: (n*n, 3) world node positions (m) of the cloth, or ``None`` without one.
     """
 
-    joints: tuple[tuple[Any, ...], ...]
-    bases: list[tuple[tuple[float, float, float], tuple[float, float, float, float]]]
+    arm: list[float]
+    fingers: list[float]
+    bases: list[FramePose]
     cloth_nodes: np.ndarray | None
 
 
@@ -127,6 +129,8 @@ class KitchenEnv(gym.Env):
         self.dt = self.substeps / PHYSICS_HZ
         self.object_names = self.scene.free_objects
         self._free_ids = [self.scene.bodies[n] for n in self.object_names]
+        self._com_to_base = [self.scene.com_to_base(body) for body in self._free_ids]
+        """Per free object, its base-link frame in its centre-of-mass frame (the observation's poses)."""
         self.target = np.zeros(3)
         self.steps = 0
         self.failure: str | None = None
@@ -211,20 +215,22 @@ class KitchenEnv(gym.Env):
             valid = "(16,), (8,) or (7,)" if self.kinova is not None else "(8,) or (7,)"
             raise ValueError(f"action must have shape {valid}, got {action.shape}")
         orn = action[3:7]
-        orn = orn / (math.sqrt(orn.dot(orn)) or 1.0)  # np.linalg.norm's arithmetic, without its overhead
+        norm = math.sqrt(orn.dot(orn)) or 1.0  # np.linalg.norm's arithmetic, without its overhead
         if self.failure is None and kinova_action is not None:
             self._command_kinova(kinova_action)
         if self.failure is None:
+            values = action.tolist()
             # Solving an unchanged target again from its solution moved the end effector by < 2 µm (99th
             # percentile of 7,100 reachable targets logged from oracle episodes); beyond the joint limits it
             # only crept along them (up to 5 mm per call), so the solution is kept.
-            target = (*action[:3].tolist(), *orn.tolist())
+            target = (*values[:3], *(v / norm for v in values[3:7]))
             if target != self._q_target:
-                self._q = self.robot.ik(action[:3], orn, seed=self._q)
+                self._q = self.robot.ik(target[:3], target[3:], seed=self._q)
                 self._q_target = target
-            self.robot.command(self._q, closed=bool(action[7] >= 0.5))
+            self.robot.command(self._q, closed=values[7] >= 0.5)
+            client = self.scene.client
             for _ in range(self.substeps):
-                p.stepSimulation(physicsClientId=self.scene.client)
+                p.stepSimulation(client)
             if self.scene.grips is not None:
                 self.scene.grips.update()
         reading = self._read()
@@ -322,9 +328,11 @@ class KitchenEnv(gym.Env):
     def _read(self) -> _Reading:
         """Read the Franka's joints, the free objects' poses and the cloth's nodes (one query each)."""
         client = self.scene.client
+        positions = [s[0] for s in p.getJointStates(self.robot.body, _ROBOT_JOINTS, client)]
         return _Reading(
-            p.getJointStates(self.robot.body, _ROBOT_JOINTS, physicsClientId=client),
-            [p.getBasePositionAndOrientation(body, physicsClientId=client) for body in self._free_ids],
+            positions[: len(ARM_JOINTS)],
+            positions[len(ARM_JOINTS) :],
+            [p.getBasePositionAndOrientation(body, client) for body in self._free_ids],
             self.scene.cloth_nodes() if self.scene.cloth is not None else None,
         )
 
@@ -332,20 +340,23 @@ class KitchenEnv(gym.Env):
         """The observation (see the module docstring), from ``reading`` if given, else read now."""
         if reading is None:
             reading = self._read()
-        ee = self.robot.ee_pose()
+        ee_position, ee_orientation = self.robot.ee_frame()
         flat: list[float] = []
-        for body, (com_position, com_orientation) in zip(self._free_ids, reading.bases, strict=True):
-            position, orientation = self.scene.base_frame(body, com_position, com_orientation)
+        # KitchenScene.base_frame of each object, its transform looked up once at construction
+        for (com_position, com_orientation), (offset, rotation) in zip(
+            reading.bases, self._com_to_base, strict=True
+        ):
+            position, orientation = p.multiplyTransforms(com_position, com_orientation, offset, rotation)
             flat += position
             flat += orientation
-        fingers = reading.joints[len(ARM_JOINTS) :]
+        fingers = reading.fingers
         obs = {
-            "ee_position": ee.position,
-            "ee_orientation": ee.orientation,
-            "gripper_width": np.array([fingers[0][0] + fingers[1][0]]),
-            "joint_positions": np.array([s[0] for s in reading.joints[: len(ARM_JOINTS)]]),
+            "ee_position": np.array(ee_position),
+            "ee_orientation": np.array(ee_orientation),
+            "gripper_width": np.array([fingers[0] + fingers[1]]),
+            "joint_positions": np.array(reading.arm),
             "object_poses": np.array(flat).reshape(len(self._free_ids), 7),
-            "container_open": np.array([self.scene.open_fraction(c) for c in ARTICULATED]),
+            "container_open": np.array(self.scene.open_fractions()),
             "target": self.target.copy(),
         }
         if self.kinova is not None:
@@ -372,7 +383,7 @@ class KitchenEnv(gym.Env):
         ``<object>_left_workspace`` (the first free object whose centre of mass is outside
         :data:`WORKSPACE`), ``cloth_left_workspace``, ``deep_penetration`` (a rigid contact deeper than
         :data:`PENETRATION`), checked in this order."""
-        if not all(math.isfinite(s[0]) for s in reading.joints[: len(ARM_JOINTS)]):
+        if not all(map(math.isfinite, reading.arm)):
             return "nan_state"
         (x_lo, x_hi), (y_lo, y_hi), (z_lo, z_hi) = _WORKSPACE_BOUNDS
         # NaN fails every comparison, so this one pass passes exactly the finite positions inside
@@ -393,7 +404,8 @@ class KitchenEnv(gym.Env):
             if np.any(nodes < WORKSPACE[0]) or np.any(nodes > WORKSPACE[1]):
                 return "cloth_left_workspace"
         soft = self.scene.cloth  # soft contacts report no meaningful depth
+        depth = -PENETRATION
         for pt in p.getContactPoints(physicsClientId=self.scene.client):
-            if pt[8] < -PENETRATION and soft not in (pt[1], pt[2]):
+            if pt[8] < depth and soft not in (pt[1], pt[2]):
                 return "deep_penetration"
         return None
