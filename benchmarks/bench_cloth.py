@@ -95,10 +95,12 @@ def cloth_speed(steps: int = 480) -> tuple[float, float, int]:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--fold-episodes", type=int, default=50)
-    parser.add_argument("--lht4-episodes", type=int, default=50)
-    parser.add_argument("--rest-trials", type=int, default=10)
-    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--fold-episodes", type=int, default=50, help="seeded fold-cloth oracle episodes")
+    parser.add_argument("--lht4-episodes", type=int, default=50, help="seeded LHT4 oracle episodes")
+    parser.add_argument(
+        "--rest-trials", type=int, default=10, help="spatula-on-cloth trials per sub-step count (0: skip)"
+    )
+    parser.add_argument("--seed", type=int, default=0, help="seed of the first episode")
     args = parser.parse_args()
 
     flat, held, nodes = cloth_speed()

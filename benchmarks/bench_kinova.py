@@ -21,8 +21,8 @@ from taskcond.sim.kinova import GEN3_HOME, GEN3_JOINTS, KinovaArm
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--targets", type=int, default=200)
-    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--targets", type=int, default=200, help="random configurations for FK and IK")
+    parser.add_argument("--seed", type=int, default=0, help="seed of the random configurations")
     args = parser.parse_args()
 
     client = p.connect(p.DIRECT)

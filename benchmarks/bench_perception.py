@@ -268,9 +268,9 @@ def bench_accuracy(client: int, n_scenes: int, noise_seeds: int) -> None:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--scenes", type=int, default=20)
-    parser.add_argument("--repeats", type=int, default=15)
-    parser.add_argument("--noise-seeds", type=int, default=50)
+    parser.add_argument("--scenes", type=int, default=20, help="randomized hand-placed scenes")
+    parser.add_argument("--repeats", type=int, default=15, help="timed observations per configuration")
+    parser.add_argument("--noise-seeds", type=int, default=50, help="noise draws per scene and sigma")
     args = parser.parse_args()
     client = p.connect(p.DIRECT)
     p.setAdditionalSearchPath(pybullet_data.getDataPath(), physicsClientId=client)
