@@ -48,12 +48,20 @@ class GroundTruth:
     def __init__(self, scene: KitchenScene) -> None:
         self.scene = scene
         self._free_by_body = {scene.bodies[name]: name for name in scene.free_objects}
+        self.known_coms: dict[str, tuple[float, float, float]] | None = None
+        """Centres of mass (m, world) of the free objects, as ``p.getBasePositionAndOrientation`` reports
+        them, while the caller holds them for the current state (:meth:`taskcond.tasks.env.KitchenEnv.step`
+        sets them around its success check from the step's own reading, and clears them); ``None``:
+        :meth:`com` asks PyBullet."""
 
     def com(self, name: str) -> np.ndarray:
         """Centre (3,) m, world: centre of mass of a free object, mean node of the cloth, AABB centre of
         anything else."""
         if name == "cloth" and self.scene.cloth is not None:
             return self.scene.cloth_nodes().mean(axis=0)
+        known = self.known_coms
+        if known is not None and name in known:
+            return np.array(known[name])
         if name in self.scene.free_objects:
             return np.array(
                 p.getBasePositionAndOrientation(self.scene.bodies[name], physicsClientId=self.scene.client)[0]
