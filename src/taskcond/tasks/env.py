@@ -223,7 +223,8 @@ class KitchenEnv(gym.Env):
             # Solving an unchanged target again from its solution moved the end effector by < 2 µm (99th
             # percentile of 7,100 reachable targets logged from oracle episodes); beyond the joint limits it
             # only crept along them (up to 5 mm per call), so the solution is kept.
-            target = (*values[:3], *(v / norm for v in values[3:7]))
+            x, y, z, qx, qy, qz, qw = values[:7]
+            target = (x, y, z, qx / norm, qy / norm, qz / norm, qw / norm)
             if target != self._q_target:
                 self._q = self.robot.ik(target[:3], target[3:], seed=self._q)
                 self._q_target = target
