@@ -112,8 +112,6 @@ class Franka:
         base_dynamics = p.getDynamicsInfo(self.body, -1, physicsClientId=client)
         self._ik_bias: tuple[float, float, float] = base_dynamics[3]
         """Position (m) of the base's centre of mass in its link frame, subtracted from IK targets."""
-        self._lower: list[float] = self.lower.tolist()
-        self._upper: list[float] = self.upper.tolist()
         self.gripper_closed = False
         self._arm_targets: list[float] | None = None
         """Arm joint targets (rad) last sent to the motors by :meth:`command`."""
@@ -183,9 +181,7 @@ class Franka:
             residualThreshold=IK_RESIDUAL,
             physicsClientId=self.client,
         )
-        # np.clip's result (no limit is zero, so no tie between signed zeros), in Python floats: faster
-        limits = zip(q[:7], self._lower, self._upper, strict=True)
-        return np.array([min(max(v, lo), hi) for v, lo, hi in limits])
+        return np.minimum(np.maximum(q[:7], self.lower), self.upper)  # np.clip's result, faster
 
     def fk(self, q: np.ndarray) -> EEPose:
         """End-effector pose for joints ``q`` (7,), computed by resetting the joints and restoring them with
