@@ -7,7 +7,7 @@ import json
 import pytest
 from typer.testing import CliRunner
 
-from taskcond.cli import app
+from taskcond.cli import app, main
 from taskcond.conditions import TaskCondition
 from taskcond.generator import ConditionGenerator
 from taskcond.llm.cache import CachedBackend
@@ -49,6 +49,36 @@ def test_bad_input_is_a_one_line_error_with_exit_code_2(args, message, monkeypat
     assert result.exit_code == 2, result.output
     assert result.stderr.startswith(message)
     assert result.stderr.count("\n") == 1 and "Traceback" not in result.output
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["run", "LHT1", "--noise", "-1"], "error: Invalid value for '--noise'"),
+        (["oracle", "grasp-bottle", "--episodes", "0"], "error: Invalid value for '--episodes'"),
+        (["run"], "error: Missing argument 'spec'; see 'taskcond run --help'"),
+        (["conditions", "open box", "--bogus"], "error: No such option: --bogus"),
+        (["fly"], "error: No such command 'fly'; see 'taskcond --help'"),
+    ],
+)
+def test_usage_errors_of_the_console_entry_point_are_one_line(args, message, capsys):
+    with pytest.raises(SystemExit) as exit_info:
+        main(args)
+    assert exit_info.value.code == 2
+    err = capsys.readouterr().err
+    assert err.startswith(message)
+    assert err.count("\n") == 1
+
+
+def test_console_entry_point_passes_exit_codes_through(capsys):
+    with pytest.raises(SystemExit) as exit_info:
+        main(["conditions", "jump over box"])
+    assert exit_info.value.code == 2
+    assert capsys.readouterr().err.startswith("error: unknown verb 'jump'")
+    with pytest.raises(SystemExit) as exit_info:
+        main(["tasks", "--json"])
+    assert exit_info.value.code == 0
+    assert json.loads(capsys.readouterr().out)
 
 
 def test_openai_without_key_names_the_variable(monkeypatch, tmp_path):

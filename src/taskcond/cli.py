@@ -524,5 +524,34 @@ eval_app.command(
 )(_eval_command("long-horizon"))
 
 
+def main(args: list[str] | None = None) -> NoReturn:
+    """The console entry point: :data:`app`, with click's usage errors (a missing argument, an option
+    out of its range, an unknown option) as one ``error:`` line naming the help to read and exit code 2,
+    like every other bad input, instead of click's framed message."""
+    try:  # typer >= 0.22 carries its own copy of click
+        from typer._click import exceptions as click
+    except ImportError:
+        from click import exceptions as click
+
+    command = typer.main.get_command(app)
+    try:
+        code = command.main(args=args, prog_name="taskcond", standalone_mode=False)
+    except click.NoArgsIsHelpError as exc:
+        exc.show()
+        raise SystemExit(2) from None
+    except click.UsageError as exc:
+        where = f"; see '{exc.ctx.command_path} --help'" if exc.ctx is not None else ""
+        message = " ".join(exc.format_message().split()).rstrip(".")
+        typer.echo(f"error: {message}{where}", err=True)
+        raise SystemExit(2) from None
+    except click.ClickException as exc:
+        typer.echo(f"error: {' '.join(exc.format_message().split())}", err=True)
+        raise SystemExit(exc.exit_code) from None
+    except click.Abort:
+        typer.echo("aborted", err=True)
+        raise SystemExit(130) from None
+    raise SystemExit(code if isinstance(code, int) else 0)
+
+
 if __name__ == "__main__":
-    app()
+    main()
