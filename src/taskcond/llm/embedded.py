@@ -12,20 +12,22 @@ from __future__ import annotations
 
 import os
 import time
+from collections.abc import Sequence
 from typing import Any
 
 from taskcond.llm.base import ChatRequest, ChatResponse, LLMError
 from taskcond.llm.models import DEFAULT_EMBEDDED_MODEL, get_embedded_model, model_path
 
 CONTEXTS = 2
+"""llama.cpp contexts kept (one per concurrent conversation; the weights are shared through mmap)."""
 BATCH = 64
 """Tokens per llama.cpp batch: a reused prompt prefix is cut to a multiple of it (see
 :meth:`EmbeddedBackend._align_reuse`), so a small batch keeps most of the prefix; on 2 cores prompt
 evaluation is about as fast in batches of 64 as of 512."""
-"""llama.cpp contexts kept (one per concurrent conversation; the weights are shared through mmap)."""
 
 
-def _common_prefix_length(a: str, b: str) -> int:
+def _common_prefix_length(a: Sequence[object], b: Sequence[object]) -> int:
+    """Length of the longest common prefix of two strings or token lists."""
     n = min(len(a), len(b))
     for i in range(n):
         if a[i] != b[i]:
@@ -118,12 +120,7 @@ class EmbeddedBackend:
         tokens = llm.tokenize(
             formatted.prompt.encode("utf-8"), add_bos=not formatted.added_special, special=True
         )
-        cached = llm.input_ids[: llm.n_tokens].tolist()
-        shared = 0
-        for a, b in zip(cached, tokens, strict=False):
-            if a != b:
-                break
-            shared += 1
+        shared = _common_prefix_length(llm.input_ids[: llm.n_tokens].tolist(), tokens)
         llm.n_tokens = min(shared, len(tokens) - 1) // llm.n_batch * llm.n_batch
 
     def chat(self, request: ChatRequest) -> ChatResponse:
