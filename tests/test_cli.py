@@ -3,6 +3,9 @@
 from __future__ import annotations
 
 import json
+import os
+import subprocess
+import sys
 
 import pytest
 from typer.testing import CliRunner
@@ -79,6 +82,21 @@ def test_console_entry_point_passes_exit_codes_through(capsys):
         main(["tasks", "--json"])
     assert exit_info.value.code == 0
     assert json.loads(capsys.readouterr().out)
+
+
+def test_a_closed_pipe_ends_quietly():
+    """``taskcond tasks | head -1``: the reader is gone before the listing is written (the read end is
+    closed first, so the write fails for certain); the command exits without a traceback."""
+    read, write = os.pipe()
+    os.close(read)
+    try:
+        proc = subprocess.run(
+            [sys.executable, "-m", "taskcond.cli", "tasks"], stdout=write, stderr=subprocess.PIPE, timeout=120
+        )
+    finally:
+        os.close(write)
+    assert "Traceback" not in proc.stderr.decode()
+    assert proc.returncode == 1
 
 
 def test_openai_without_key_names_the_variable(monkeypatch, tmp_path):

@@ -547,7 +547,7 @@ def main(args: list[str] | None = None) -> NoReturn:
     except click.ClickException as exc:
         typer.echo(f"error: {' '.join(exc.format_message().split())}", err=True)
         raise SystemExit(exc.exit_code) from None
-    except click.Abort:
+    except typer.Abort:
         typer.echo("aborted", err=True)
         raise SystemExit(130) from None
     raise SystemExit(code if isinstance(code, int) else 0)
