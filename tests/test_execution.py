@@ -18,6 +18,7 @@ from taskcond.conditions import (
 )
 from taskcond.dmp import rollout
 from taskcond.execution.decompose import DecompositionError, parse_plan
+from taskcond.execution.executor import Landing, landings
 from taskcond.execution.skills import (
     Demonstration,
     SkillError,
@@ -27,6 +28,7 @@ from taskcond.execution.skills import (
     target_object,
 )
 from taskcond.execution.sources import EnvConditions, condition_from_environment
+from taskcond.execution.world import Observation, Touch
 
 
 def _grasp_demo(task: str = "grasp bottle", start=(0.3, 0.0, 0.5), target=(0.5, 0.1, 0.06)) -> Demonstration:
@@ -229,3 +231,38 @@ def test_parse_plan_accepts_numbered_lines_and_rejects_unknown_objects() -> None
         parse_plan("\n\n", objects)
     with pytest.raises(DecompositionError, match="cannot be opened"):
         parse_plan("open table", objects, lambda prim, objs: "cannot be opened" if prim == "open" else None)
+
+
+def test_landings_are_the_contacts_inside_and_above_post_conditions_imply() -> None:
+    """``bowl inside bottom drawer``: the bowl on the drawer's floor (below the drawer's centre) arrives,
+    the bowl on its rim does not; ``mug above table``: the mug on the table's top (above its centre)
+    arrives, under it it does not. Gripper relations and unperceived references give no landing."""
+    cond = TaskCondition(
+        "move bowl into bottom drawer",
+        post_conditions=(
+            SpatialRelation("bowl", Relation.INSIDE, "bottom drawer"),
+            SpatialRelation("mug", Relation.ABOVE, "table"),
+            SpatialRelation("gripper", Relation.INSIDE, "bottom drawer"),
+            SpatialRelation("bowl", Relation.ABOVE, "cabinet"),
+            GripperState("bowl"),
+        ),
+    )
+    obs = Observation(
+        frozenset(),
+        {"bottom drawer": np.array([0.5, 0.4, 0.07]), "table": np.array([0.4, 0.0, -0.02])},
+        (),
+    )
+    found = landings(cond, obs)
+    assert found == {
+        Collision("bowl", "bottom drawer"): Landing(on_top=False, height=0.07),
+        Collision("mug", "table"): Landing(on_top=True, height=-0.02),
+    }
+
+    def at(z: float) -> Touch:
+        return Touch("bowl", "bottom drawer", np.array([0.5, 0.4, z]))
+
+    assert found[Collision("bowl", "bottom drawer")].admits(at(0.03))
+    assert not found[Collision("bowl", "bottom drawer")].admits(at(0.14))
+    table = found[Collision("mug", "table")]
+    assert table.admits(Touch("mug", "table", np.array([0.4, 0.0, 0.0])))
+    assert not table.admits(Touch("mug", "table", np.array([0.4, 0.0, -0.05])))

@@ -26,7 +26,15 @@ With conditions, every primitive is performed as
    paper moves the goal in 3-D without bound): a contact at a container's rim below the goal would
    otherwise lift the goal out of the container the object is being lowered into. A pair of bodies
    adjusts the goal once per rollout: a contact away from the goal (a rim crossed on the way) recurs
-   after every back-up, and moving the goal again each time would carry it away;
+   after every back-up, and moving the goal again each time would carry it away. A contact that a
+   post-condition implies is not a collision either (:func:`landings`): ``bowl inside bottom drawer``
+   ends with the bowl standing on the drawer's floor, ``mug above table`` with the mug on the table's
+   top, so the held object's contact with that reference in its lower half (inside) or upper half
+   (above) is the object arriving, while its contact with a rim (the box's upper half) is still one.
+   Nor is a gripper's contact with a container that it, or the object it holds, is inside when the
+   primitive starts (releasing the toothpaste in the mug opens the fingers against the mug's wall): it
+   can only leave that container, and moving the goal towards the wall would squeeze what it has just
+   let go.
    Spatial relations of the gripper itself (``gripper in front of box``) are left to the motion: no
    primitive achieves them on their own;
 3. the post-conditions are checked; if some of its *effects* do not hold (post-conditions that are not
@@ -60,6 +68,7 @@ from taskcond.conditions import (
     ContainerState,
     GripperState,
     Predicate,
+    Relation,
     SpatialRelation,
     TaskCondition,
     is_gripper,
@@ -385,6 +394,14 @@ class Executor:
         checked = {o for g in world.arms[:arms] if (o := obs.grasped(g)) is not None}
         baseline = {t.collision for t in obs.touches}
         allowed = set(cond.collisions) if cond is not None else set()
+        allowed |= {
+            Collision(g, q.reference)
+            for q in obs.predicates
+            if isinstance(q, SpatialRelation) and q.relation == Relation.INSIDE
+            for g in world.arms[:arms]
+            if q.subject in (g, obs.grasped(g))
+        }
+        arrivals = landings(cond, obs) if cond is not None else {}
         self._emit(
             "primitive",
             task,
@@ -416,7 +433,7 @@ class Executor:
                 self._step(position, orientations[k], seg.gripper)
                 if cond is None or adjustments >= cfg.max_adjustments:
                     continue
-                touch = self._unallowed(world.touches(), checked, seg, baseline, allowed)
+                touch = self._unallowed(world.touches(), checked, seg, baseline, allowed, arrivals)
                 if touch is None:
                     continue
                 back = min(cfg.backup_points, k, rollout.kept)
@@ -424,7 +441,7 @@ class Executor:
                     continue
                 state = rollout.back_up(back)
                 k -= back
-                shift = self._goal_shift(touch, goal, target)
+                shift = self._goal_shift(touch, goal, target, target_name, checked)
                 goal = goal + np.tile(shift, arms)
                 rollout.set_goal(goal)
                 baseline.add(touch.collision)
@@ -493,16 +510,41 @@ class Executor:
         speed = min(self.config.speed_limit, demo / seg.duration) if demo > 1e-6 else self.config.speed_limit
         return max(seg.duration, new / max(speed, 1e-3))
 
-    def _goal_shift(self, touch: Touch, goal: np.ndarray, target: np.ndarray | None) -> np.ndarray:
+    def _goal_shift(
+        self,
+        touch: Touch,
+        goal: np.ndarray,
+        target: np.ndarray | None,
+        target_name: str | None,
+        held: set[str],
+    ) -> np.ndarray:
         """Alg. 2 line 11's goal change (3,) for a collision at ``touch``: ``goalPos − collPos`` with the
         paper's goalPos, the target object's centre (line 3) for a primitive with a target, else the goal
         of the arm involved (the first arm's if none is), horizontal only and at most
-        :attr:`ExecutionConfig.max_goal_shift` long (module doc)."""
+        :attr:`ExecutionConfig.max_goal_shift` long (module doc).
+
+        A collision with the target itself while carrying an object (the toothpaste, or the hand holding
+        it, on the mug's rim) moves the goal by ``target centre − where the carried object would end``
+        instead: its perceived centre now plus the end effector's remaining way to the goal. That puts the
+        carried object over the target's centre; ``goalPos − collPos`` would move it by the whole distance
+        from the rim to the centre, to the opposite rim.
+        """
+        carried = sorted(held)
+        if target is not None and target_name in (touch.a, touch.b) and carried:
+            centre = self.world.observe().centers.get(carried[0])
+            if centre is not None:
+                here, _ = self.world.ee_pose()
+                return self._bounded(np.asarray(target, float) - (centre + goal[:3] - here))
         if target is None:
             names = [n for n in (touch.a, touch.b) if n in self.world.arms]
             arm = self.world.arms.index(names[0]) if names else 0
             target = goal[3 * arm : 3 * arm + 3]
-        shift = np.asarray(target, float) - touch.position
+        return self._bounded(np.asarray(target, float) - touch.position)
+
+    def _bounded(self, shift: np.ndarray) -> np.ndarray:
+        """``shift`` (3,) m without its vertical part, at most :attr:`ExecutionConfig.max_goal_shift`
+        long."""
+        shift = np.array(shift, float)
         shift[2] = 0.0
         norm = float(np.linalg.norm(shift))
         if norm > self.config.max_goal_shift:
@@ -516,15 +558,21 @@ class Executor:
         seg: Segment,
         baseline: set[Collision],
         allowed: set[Collision],
+        arrivals: dict[Collision, Landing],
     ) -> Touch | None:
         """The first contact that involves a gripper (or, while the gripper is closed, the object it held
-        at the start), is new since the primitive began and is not allowed by the condition."""
+        at the start), is new since the primitive began, is not allowed by the condition and is not a
+        landing its post-conditions imply (:func:`landings`)."""
         for touch in touches:
             movers = is_gripper(touch.a) or is_gripper(touch.b)
             if seg.gripper >= 0.5:
                 movers = movers or touch.a in held or touch.b in held
-            if movers and touch.collision not in baseline and touch.collision not in allowed:
-                return touch
+            if not movers or touch.collision in baseline or touch.collision in allowed:
+                continue
+            landing = arrivals.get(touch.collision)
+            if landing is not None and landing.admits(touch):
+                continue
+            return touch
         return None
 
     def _step(self, position: np.ndarray, orientation: np.ndarray, gripper: float) -> None:
@@ -562,6 +610,39 @@ def _conditioned(seg: Segment, start: np.ndarray, goal: np.ndarray) -> DMPParame
         ratio = np.where(dmp.goal_scaled, (np.asarray(goal) - np.asarray(start)) / demo, 1.0)
     bad = dmp.goal_scaled & ((ratio < 0) | (np.abs(ratio) > MAX_STRETCH))
     return dmp.unscaled(bad) if bad.any() else dmp
+
+
+@dataclass(frozen=True)
+class Landing:
+    """Where a held object's contact with the reference of a post-condition is that post-condition coming
+    true (module doc, step 2).
+
+    Attributes:
+        on_top: ``X above Y`` (the contact lies on Y's top, above :attr:`height`); else ``X inside Y``
+            (on Y's floor, below it).
+        height: Y's perceived centre, m, world z.
+    """
+
+    on_top: bool
+    height: float
+
+    def admits(self, touch: Touch) -> bool:
+        """``touch`` (between X and Y) lies on the side of :attr:`height` that the relation implies."""
+        return bool(touch.position[2] >= self.height) == self.on_top
+
+
+def landings(cond: TaskCondition, obs: Observation) -> dict[Collision, Landing]:
+    """The contacts that ``cond``'s post-conditions ``X inside Y`` and ``X above Y`` between two objects
+    imply, by pair X–Y, with Y's perceived centre from ``obs``."""
+    out: dict[Collision, Landing] = {}
+    for q in cond.post_conditions:
+        if not isinstance(q, SpatialRelation) or q.relation not in (Relation.INSIDE, Relation.ABOVE):
+            continue
+        center = obs.centers.get(q.reference)
+        if center is None or is_gripper(q.subject) or is_gripper(q.reference):
+            continue
+        out[Collision(q.subject, q.reference)] = Landing(q.relation == Relation.ABOVE, float(center[2]))
+    return out
 
 
 def _undoing(cond: TaskCondition, obs: Observation) -> tuple[Predicate, Predicate] | None:
@@ -612,5 +693,7 @@ __all__ = [
     "ExecutionError",
     "ExecutionResult",
     "Executor",
+    "Landing",
     "Method",
+    "landings",
 ]

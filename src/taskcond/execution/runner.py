@@ -36,9 +36,16 @@ DEFAULT_NOISE = 0.005
 """Default perception noise σ (m) on object centres and boxes in runs and evaluations (§III-A.2)."""
 
 
+ORACLE_REVISION = 2
+"""Revision of the suite's oracles the default skill library is learned from; raised whenever their
+demonstrations change (2: the bowl and the mug held by their wall), so that a library learned from older
+demonstrations is not picked up by default."""
+
+
 def default_library_dir() -> Path:
-    """Where ``taskcond learn`` stores the skill library: ``<cache dir>/skills/v<format>``."""
-    return cache_dir() / "skills" / f"v{LIBRARY_FORMAT}"
+    """Where ``taskcond learn`` stores the skill library:
+    ``<cache dir>/skills/v<format>-oracles<revision>`` (:data:`ORACLE_REVISION`)."""
+    return cache_dir() / "skills" / f"v{LIBRARY_FORMAT}-oracles{ORACLE_REVISION}"
 
 
 def load_library(
@@ -353,6 +360,7 @@ def cpu_count() -> int:
 
 __all__ = [
     "DEFAULT_NOISE",
+    "ORACLE_REVISION",
     "EpisodeResult",
     "Job",
     "RunPlan",

@@ -75,9 +75,7 @@ class SceneConfig:
             "bottle": (BottleSpec(), Placement((0.40, -0.02))),
             "bowl": (VesselSpec(), Placement((0.42, 0.19))),
             "mug": (
-                VesselSpec(
-                    outer_radius=0.035, height=0.09, handle=True, mass=0.2, rgba=(0.8, 0.25, 0.2, 1.0)
-                ),
+                VesselSpec(outer_radius=0.04, height=0.09, handle=True, mass=0.3, rgba=(0.8, 0.25, 0.2, 1.0)),
                 Placement((0.34, -0.26)),
             ),
             "toothpaste": (BlockSpec(), Placement((0.30, 0.11))),

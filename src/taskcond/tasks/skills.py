@@ -53,8 +53,10 @@ class GraspPose:
 GRASPS: dict[str, GraspPose] = {
     # the upper body, palm (3.5 cm above the end-effector point) clear of the neck's top at 0.13 m
     "bottle": GraspPose(0.10, 0.0, 0.06),
-    "bowl": GraspPose(0.022, 0.0, 0.068),
-    "mug": GraspPose(0.06, math.pi / 2, 0.07),
+    # vessels by the wall nearest the robot (their own -x side), one finger inside, one outside: an open
+    # hand (8 cm) clears a 6 mm wall by 3.7 cm on each side, around the whole vessel by 6 and 5 mm only
+    "bowl": GraspPose(0.035, math.pi / 2, 0.006, along=-0.031),
+    "mug": GraspPose(0.08, math.pi / 2, 0.006, along=-0.037),
     "toothpaste": GraspPose(0.075, math.pi / 2, 0.022),
     # on the handle 3.5 cm towards the blade: near the centre of mass (2.3 cm), and far enough from the
     # robot base for the hand to reach it low down (at 0.24 m in front of the base the elbow is at its limit)
