@@ -280,7 +280,7 @@ def learn(
     task: Annotated[
         list[str] | None,
         typer.Option(
-            "--task", help="Only these suite tasks (repeatable; default all primitives and LHT1-3)."
+            "--task", help="Only these suite tasks (repeatable; default all primitives and LHT1-LHT4)."
         ),
     ] = None,
     seed: Annotated[int, typer.Option("--seed", help="Seed of the first demonstration of each task.")] = 0,
