@@ -410,14 +410,29 @@ class KitchenScene:
         j = self.joints[container]
         return (self.joint_position(container) - j.closed_position) / (j.open_position - j.closed_position)
 
-    def open_fractions(self) -> list[float]:
-        """:meth:`open_fraction` of every container of :data:`ARTICULATED`, in that order, from one joint
-        query per body (the cabinet's two drawers together)."""
+    @property
+    def articulated_bodies(self) -> tuple[int, ...]:
+        """Body ids of the containers of :data:`ARTICULATED`, each once, in the order of
+        :meth:`container_joint_positions`."""
+        return tuple(body for body, _, _ in self._container_reads)
+
+    def container_joint_positions(self) -> list[tuple[float, ...]]:
+        """Positions (m or rad) of the container joints, one tuple per :attr:`articulated_bodies` entry (the
+        cabinet's two drawers together, in :data:`ARTICULATED` order), from one joint query per body."""
         client = self.client
+        return [
+            tuple(s[0] for s in p.getJointStates(body, joint_indices, client))
+            for body, joint_indices, _ in self._container_reads
+        ]
+
+    def open_fractions(self, positions: list[tuple[float, ...]] | None = None) -> list[float]:
+        """:meth:`open_fraction` of every container of :data:`ARTICULATED`, in that order, from the joint
+        ``positions`` :meth:`container_joint_positions` returned (read now if not given)."""
+        if positions is None:
+            positions = self.container_joint_positions()
         fractions: list[float] = []
-        for body, joint_indices, ranges in self._container_reads:
-            states = p.getJointStates(body, joint_indices, client)
-            fractions += [(s[0] - closed) / span for s, (closed, span) in zip(states, ranges, strict=True)]
+        for joints, (_, _, ranges) in zip(positions, self._container_reads, strict=True):
+            fractions += [(q - closed) / span for q, (closed, span) in zip(joints, ranges, strict=True)]
         return fractions
 
     def interior(self, container: str) -> WorldInterior:
