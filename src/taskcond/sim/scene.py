@@ -16,6 +16,7 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 from functools import cached_property
+from operator import itemgetter
 
 import numpy as np
 import pybullet as p
@@ -46,6 +47,8 @@ KINOVA_GRIPPER = "kinova gripper"
 """Name of the Kinova's gripper in conditions."""
 FramePose = tuple[tuple[float, float, float], tuple[float, float, float, float]]
 """A pose as PyBullet returns it: position (m) and quaternion (xyzw)."""
+_POSITION = itemgetter(0)
+"""Item 0 of a ``p.getJointStates`` entry: the joint position (m or rad)."""
 
 
 @dataclass(frozen=True)
@@ -421,7 +424,7 @@ class KitchenScene:
         cabinet's two drawers together, in :data:`ARTICULATED` order), from one joint query per body."""
         client = self.client
         return [
-            tuple(s[0] for s in p.getJointStates(body, joint_indices, client))
+            tuple(map(_POSITION, p.getJointStates(body, joint_indices, client)))
             for body, joint_indices, _ in self._container_reads
         ]
 
@@ -430,10 +433,11 @@ class KitchenScene:
         ``positions`` :meth:`container_joint_positions` returned (read now if not given)."""
         if positions is None:
             positions = self.container_joint_positions()
-        fractions: list[float] = []
-        for joints, (_, _, ranges) in zip(positions, self._container_reads, strict=True):
-            fractions += [(q - closed) / span for q, (closed, span) in zip(joints, ranges, strict=True)]
-        return fractions
+        return [
+            (q - closed) / span
+            for joints, (_, _, ranges) in zip(positions, self._container_reads, strict=True)
+            for q, (closed, span) in zip(joints, ranges, strict=True)
+        ]
 
     def interior(self, container: str) -> WorldInterior:
         """A container's interior volume in the world frame, following its link (drawer, vessel). The interior

@@ -145,6 +145,9 @@ class KitchenEnv(gym.Env):
         self._free_ids = [self.scene.bodies[n] for n in self.object_names]
         self._com_to_base = [self.scene.com_to_base(body) for body in self._free_ids]
         """Per free object, its base-link frame in its centre-of-mass frame (the observation's poses)."""
+        self._base_frames: list[tuple[FramePose, tuple[float, ...]] | None] = [None] * len(self._free_ids)
+        """Per free object, the last centre-of-mass pose :meth:`_obs` transformed and its base-link frame
+        (position m + quaternion xyzw, world)."""
         self._tracked: tuple[int, ...] | None = None
         """Bodies whose state :meth:`_moved_bodies` compares, in the order of :meth:`_body_states`: the
         Franka, the free objects, the articulated containers; ``None`` in a scene with the Kinova or the
@@ -378,13 +381,15 @@ class KitchenEnv(gym.Env):
             reading = self._read()
         ee_position, ee_orientation = self.robot.ee_frame()
         flat: list[float] = []
-        # KitchenScene.base_frame of each object, its transform looked up once at construction
-        for (com_position, com_orientation), (offset, rotation) in zip(
-            reading.bases, self._com_to_base, strict=True
-        ):
-            position, orientation = p.multiplyTransforms(com_position, com_orientation, offset, rotation)
-            flat += position
-            flat += orientation
+        frames = self._base_frames
+        # KitchenScene.base_frame of each object, its transform looked up once at construction; a function
+        # of the centre-of-mass pose alone, so an object that kept its pose keeps its frame
+        for k, (pose, (offset, rotation)) in enumerate(zip(reading.bases, self._com_to_base, strict=True)):
+            cached = frames[k]
+            if cached is None or cached[0] != pose:
+                position, orientation = p.multiplyTransforms(pose[0], pose[1], offset, rotation)
+                cached = frames[k] = (pose, position + orientation)
+            flat += cached[1]
         fingers = reading.fingers
         obs = {
             "ee_position": np.array(ee_position),
