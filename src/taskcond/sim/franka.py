@@ -25,6 +25,9 @@ HOME = (0.0, -0.3, 0.0, -2.3, 0.0, 2.0, 0.785)
 """Joint positions (rad) of the start pose: gripper pointing down in front of the robot."""
 FORWARD_SEED = (0.0, 0.3, 0.0, -2.0, 0.0, 2.3, 0.785)
 ARM_FORCES = (87.0, 87.0, 87.0, 87.0, 12.0, 12.0, 12.0)
+"""Maximum torque (N·m) of each arm joint's position motor (all seven are revolute)."""
+ARM_GAINS = (0.1,) * 7
+"""Position gain of each arm joint's position motor (PyBullet's ``positionGains``)."""
 FINGER_FORCE = 40.0
 """Force (N) of each finger's position motor; the grasp force on an object."""
 FINGER_OPEN = 0.04
@@ -88,6 +91,8 @@ class Franka:
         info = [p.getJointInfo(self.body, j, physicsClientId=client) for j in ARM_JOINTS]
         self.lower = np.array([i[8] for i in info])
         self.upper = np.array([i[9] for i in info])
+        self._limits = [(i[8], i[9]) for i in info]
+        """Per arm joint, its (lower, upper) limit (rad) as floats, for :meth:`ik`'s clipping."""
         gear = p.createConstraint(
             self.body,
             FINGER_JOINTS[0],
@@ -181,7 +186,10 @@ class Franka:
             residualThreshold=IK_RESIDUAL,
             physicsClientId=self.client,
         )
-        return np.minimum(np.maximum(q[:7], self.lower), self.upper)  # np.clip's result, faster
+        # np.minimum(np.maximum(q, lower), upper) in Python floats (NaN passes through, as in numpy)
+        return np.array(
+            [lo if v < lo else hi if v > hi else v for v, (lo, hi) in zip(q[:7], self._limits, strict=True)]
+        )
 
     def fk(self, q: np.ndarray) -> EEPose:
         """End-effector pose for joints ``q`` (7,), computed by resetting the joints and restoring them with
@@ -206,7 +214,7 @@ class Franka:
                 p.POSITION_CONTROL,
                 targetPositions=targets,
                 forces=ARM_FORCES,
-                positionGains=[0.1] * 7,
+                positionGains=ARM_GAINS,
                 physicsClientId=self.client,
             )
             self._arm_targets = targets

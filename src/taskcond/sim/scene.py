@@ -15,6 +15,8 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
+from functools import cached_property
+from operator import itemgetter
 
 import numpy as np
 import pybullet as p
@@ -45,6 +47,8 @@ KINOVA_GRIPPER = "kinova gripper"
 """Name of the Kinova's gripper in conditions."""
 FramePose = tuple[tuple[float, float, float], tuple[float, float, float, float]]
 """A pose as PyBullet returns it: position (m) and quaternion (xyzw)."""
+_POSITION = itemgetter(0)
+"""Item 0 of a ``p.getJointStates`` entry: the joint position (m or rad)."""
 
 
 @dataclass(frozen=True)
@@ -139,18 +143,22 @@ class WorldInterior:
     rotation: np.ndarray
     round: bool
 
-    def contains(self, point: np.ndarray, margin: float = 0.0) -> bool:
+    @cached_property
+    def _floats(self) -> tuple[list[float], list[list[float]], list[float]]:
+        """``center``, ``rotation`` and ``half_extents`` as Python floats (a fixed interior is reused)."""
+        return self.center.tolist(), self.rotation.tolist(), self.half_extents.tolist()
+
+    def contains(self, point: np.ndarray | Sequence[float], margin: float = 0.0) -> bool:
         """Whether ``point`` (3,) world lies inside, grown by ``margin`` m on every side."""
-        px, py, pz = np.asarray(point).tolist()
-        cx, cy, cz = self.center.tolist()
+        px, py, pz = point.tolist() if isinstance(point, np.ndarray) else point
+        (cx, cy, cz), rotation, (hx, hy, hz) = self._floats
         dx, dy, dz = px - cx, py - cy, pz - cz
-        (r00, r01, r02), (r10, r11, r12), (r20, r21, r22) = self.rotation.tolist()
+        (r00, r01, r02), (r10, r11, r12), (r20, r21, r22) = rotation
         # rotation.T @ (point - center) in Python floats: numpy's products and sums in numpy's order (bit for
         # bit the same on 200,000 random rotations and points), without numpy's cost per call
         x = r00 * dx + r10 * dy + r20 * dz
         y = r01 * dx + r11 * dy + r21 * dz
         z = r02 * dx + r12 * dy + r22 * dz
-        hx, hy, hz = self.half_extents.tolist()
         if self.round and math.hypot(x, y) > hx + margin:
             return False
         return abs(x) <= hx + margin and abs(y) <= hy + margin and abs(z) <= hz + margin
@@ -403,15 +411,31 @@ class KitchenScene:
         j = self.joints[container]
         return (self.joint_position(container) - j.closed_position) / (j.open_position - j.closed_position)
 
-    def open_fractions(self) -> list[float]:
-        """:meth:`open_fraction` of every container of :data:`ARTICULATED`, in that order, from one joint
-        query per body (the cabinet's two drawers together)."""
+    @property
+    def articulated_bodies(self) -> tuple[int, ...]:
+        """Body ids of the containers of :data:`ARTICULATED`, each once, in the order of
+        :meth:`container_joint_positions`."""
+        return tuple(body for body, _, _ in self._container_reads)
+
+    def container_joint_positions(self) -> list[tuple[float, ...]]:
+        """Positions (m or rad) of the container joints, one tuple per :attr:`articulated_bodies` entry (the
+        cabinet's two drawers together, in :data:`ARTICULATED` order), from one joint query per body."""
         client = self.client
-        fractions: list[float] = []
-        for body, joint_indices, ranges in self._container_reads:
-            states = p.getJointStates(body, joint_indices, client)
-            fractions += [(s[0] - closed) / span for s, (closed, span) in zip(states, ranges, strict=True)]
-        return fractions
+        return [
+            tuple(map(_POSITION, p.getJointStates(body, joint_indices, client)))
+            for body, joint_indices, _ in self._container_reads
+        ]
+
+    def open_fractions(self, positions: list[tuple[float, ...]] | None = None) -> list[float]:
+        """:meth:`open_fraction` of every container of :data:`ARTICULATED`, in that order, from the joint
+        ``positions`` :meth:`container_joint_positions` returned (read now if not given)."""
+        if positions is None:
+            positions = self.container_joint_positions()
+        return [
+            (q - closed) / span
+            for joints, (_, _, ranges) in zip(positions, self._container_reads, strict=True)
+            for q, (closed, span) in zip(joints, ranges, strict=True)
+        ]
 
     def interior(self, container: str) -> WorldInterior:
         """A container's interior volume in the world frame, following its link (drawer, vessel). The interior

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 from collections.abc import Iterator
 from dataclasses import dataclass
+from functools import cached_property
 from typing import TYPE_CHECKING, Literal
 
 import numpy as np
@@ -64,8 +65,14 @@ class Task:
         """Bring the freshly randomized scene into the task's initial state (reset time only)."""
 
     def post_conditions(self) -> tuple[Predicate, ...]:
-        """Conditions that mark success, in the vocabulary of :mod:`taskcond.conditions`."""
+        """Conditions that mark success, in the vocabulary of :mod:`taskcond.conditions`; the same for the
+        task's lifetime (:meth:`success` asks once)."""
         return ()
+
+    @cached_property
+    def _success_conditions(self) -> tuple[Predicate, ...]:
+        """:meth:`post_conditions`, built once (:meth:`success` runs at every control step)."""
+        return self.post_conditions()
 
     def extra_success(self, env: KitchenEnv) -> bool:
         """Success criteria outside the vocabulary (lifted, tilted, at the target)."""
@@ -73,7 +80,7 @@ class Task:
 
     def success(self, env: KitchenEnv) -> bool:
         """Ground-truth success: every post-condition holds and :meth:`extra_success`."""
-        return all(map(env.truth.holds, self.post_conditions())) and self.extra_success(env)
+        return all(map(env.truth.holds, self._success_conditions)) and self.extra_success(env)
 
     def plans(self, env: KitchenEnv) -> Iterator[Trajectory]:
         """The scripted oracle: end-effector trajectories to execute one after the other, each planned

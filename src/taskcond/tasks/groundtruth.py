@@ -140,7 +140,9 @@ class GroundTruth:
     def inside(self, a: str, b: str) -> bool:
         if b not in self.scene.interiors:
             return False
-        return self.scene.interior(b).contains(self.com(a), INSIDE_MARGIN)
+        known = self.known_coms
+        point = known[a] if known is not None and a in known else self.com(a)
+        return self.scene.interior(b).contains(point, INSIDE_MARGIN)
 
     def above(self, a: str, b: str) -> bool:
         alo, ahi = self.scene.aabb(a)
