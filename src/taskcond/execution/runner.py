@@ -38,7 +38,7 @@ DEFAULT_NOISE = 0.005
 
 ORACLE_REVISION = 2
 """Revision of the suite's oracles the default skill library is learned from; raised whenever their
-demonstrations change (2: the bowl and the mug held by their wall), so that a library learned from older
+demonstrations change (2: the bowl and the mug held by their wall, the toothpaste near its top), so that a library learned from older
 demonstrations is not picked up by default."""
 
 

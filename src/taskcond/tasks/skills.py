@@ -57,7 +57,8 @@ GRASPS: dict[str, GraspPose] = {
     # hand (8 cm) clears a 6 mm wall by 3.7 cm on each side, around the whole vessel by 6 and 5 mm only
     "bowl": GraspPose(0.035, math.pi / 2, 0.006, along=-0.031),
     "mug": GraspPose(0.08, math.pi / 2, 0.006, along=-0.037),
-    "toothpaste": GraspPose(0.075, math.pi / 2, 0.022),
+    # near the top, so that with the tube standing in the mug the fingertips open above the mug's rim
+    "toothpaste": GraspPose(0.085, math.pi / 2, 0.022),
     # on the handle 3.5 cm towards the blade: near the centre of mass (2.3 cm), and far enough from the
     # robot base for the hand to reach it low down (at 0.24 m in front of the base the elbow is at its limit)
     "spatula": GraspPose(0.018, 0.0, 0.022, along=0.035),
