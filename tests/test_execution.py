@@ -18,7 +18,7 @@ from taskcond.conditions import (
 )
 from taskcond.dmp import rollout
 from taskcond.execution.decompose import DecompositionError, parse_plan
-from taskcond.execution.executor import Landing, landings
+from taskcond.execution.executor import Landing, allowed_for_arms, landings
 from taskcond.execution.skills import (
     Demonstration,
     SkillError,
@@ -266,3 +266,12 @@ def test_landings_are_the_contacts_inside_and_above_post_conditions_imply() -> N
     table = found[Collision("mug", "table")]
     assert table.admits(Touch("mug", "table", np.array([0.4, 0.0, 0.0])))
     assert not table.admits(Touch("mug", "table", np.array([0.4, 0.0, -0.05])))
+
+
+def test_a_collision_of_the_gripper_is_allowed_for_every_arm_of_a_multi_arm_skill() -> None:
+    """``gripper and cloth`` of a fold condition allows the Kinova's gripper on the cloth when the skill
+    moves both arms, and only the Franka's when it moves one; pairs without the gripper stay as they are."""
+    allowed = [Collision("gripper", "cloth"), Collision("cloth", "table")]
+    both = allowed_for_arms(allowed, ("gripper", "kinova gripper"))
+    assert both == {*allowed, Collision("kinova gripper", "cloth")}
+    assert allowed_for_arms(allowed, ("gripper",)) == set(allowed)

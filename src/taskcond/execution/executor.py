@@ -35,6 +35,9 @@ With conditions, every primitive is performed as
    primitive starts (releasing the toothpaste in the mug opens the fingers against the mug's wall): it
    can only leave that container, and moving the goal towards the wall would squeeze what it has just
    let go.
+   A condition speaks of *the* gripper; a skill that moves several arms together (the dual-arm fold)
+   allows each collision of ``gripper`` for each of its arms' grippers (:func:`allowed_for_arms`:
+   ``gripper and cloth`` lets the Kinova's gripper hold the cloth's other corner).
    Spatial relations of the gripper itself (``gripper in front of box``) are left to the motion: no
    primitive achieves them on their own;
 3. the post-conditions are checked; if some of its *effects* do not hold (post-conditions that are not
@@ -64,6 +67,7 @@ from typing import Any, Literal, Protocol
 import numpy as np
 
 from taskcond.conditions import (
+    GRIPPER,
     Collision,
     ContainerState,
     GripperState,
@@ -393,7 +397,7 @@ class Executor:
             )
         checked = {o for g in world.arms[:arms] if (o := obs.grasped(g)) is not None}
         baseline = {t.collision for t in obs.touches}
-        allowed = set(cond.collisions) if cond is not None else set()
+        allowed = allowed_for_arms(cond.collisions, world.arms[:arms]) if cond is not None else set()
         allowed |= {
             Collision(g, q.reference)
             for q in obs.predicates
@@ -645,6 +649,21 @@ def landings(cond: TaskCondition, obs: Observation) -> dict[Collision, Landing]:
     return out
 
 
+def allowed_for_arms(collisions: Sequence[Collision], arms: Sequence[str]) -> set[Collision]:
+    """The allowed ``collisions`` of a condition for a skill that moves ``arms`` together: a condition
+    speaks of *the* gripper (``gripper and cloth``), and a multi-arm skill (the dual-arm fold, our addition
+    to the paper's §IV) performs the primitive with each of its arms, so every such pair is allowed for
+    each arm's gripper."""
+    allowed = set(collisions)
+    for c in collisions:
+        for g in arms:
+            if c.a == GRIPPER:
+                allowed.add(Collision(g, c.b))
+            if c.b == GRIPPER:
+                allowed.add(Collision(c.a, g))
+    return allowed
+
+
 def _undoing(cond: TaskCondition, obs: Observation) -> tuple[Predicate, Predicate] | None:
     """A pre-condition of ``cond`` that does not hold and whose achievement would undo a post-condition
     that does (``gripper not grasping`` against ``gripper grasping bowl``, ``box closed`` against ``box
@@ -695,5 +714,6 @@ __all__ = [
     "Executor",
     "Landing",
     "Method",
+    "allowed_for_arms",
     "landings",
 ]
