@@ -38,8 +38,8 @@ DEFAULT_NOISE = 0.005
 
 ORACLE_REVISION = 2
 """Revision of the suite's oracles the default skill library is learned from; raised whenever their
-demonstrations change (2: the bowl and the mug held by their wall, the toothpaste near its top), so that a library learned from older
-demonstrations is not picked up by default."""
+demonstrations change (2: the bowl and the mug held by their wall, the toothpaste near its top), so
+that a library learned from older demonstrations is not picked up by default."""
 
 
 def default_library_dir() -> Path:

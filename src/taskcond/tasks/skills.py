@@ -34,17 +34,20 @@ GRIP_TIME = 0.6
 class GraspPose:
     """Top-down grasp of a free object: end-effector ``height`` (m) above the object's bottom-centre frame
     and ``along`` (m) along the object's own x axis from it, gripper yaw = object yaw + ``yaw_offset``
-    (rad), object ``width`` (m) between the pads."""
+    (rad), object ``width`` (m) between the pads. A ``round`` object (a vessel held by its wall) is held
+    on the same side in the world frame whatever its yaw: the world x axis takes the place of its own, so
+    the hand-to-object offset does not turn with the object's random yaw."""
 
     height: float
     yaw_offset: float
     width: float
     along: float = 0.0
+    round: bool = False
 
     def pose(self, scene: KitchenScene, name: str) -> tuple[np.ndarray, np.ndarray]:
         """End-effector position (3,) and orientation (4,) grasping ``name`` where it is now."""
         pos, _ = scene.pose(name)
-        yaw = scene.yaw(name)
+        yaw = 0.0 if self.round else scene.yaw(name)
         offset = np.array([self.along * math.cos(yaw), self.along * math.sin(yaw), self.height])
         grip_yaw = (yaw + self.yaw_offset + math.pi / 2) % math.pi - math.pi / 2
         return pos + offset, np.array(top_down(grip_yaw))
@@ -53,10 +56,10 @@ class GraspPose:
 GRASPS: dict[str, GraspPose] = {
     # the upper body, palm (3.5 cm above the end-effector point) clear of the neck's top at 0.13 m
     "bottle": GraspPose(0.10, 0.0, 0.06),
-    # vessels by the wall nearest the robot (their own -x side), one finger inside, one outside: an open
-    # hand (8 cm) clears a 6 mm wall by 3.7 cm on each side, around the whole vessel by 6 and 5 mm only
-    "bowl": GraspPose(0.035, math.pi / 2, 0.006, along=-0.031),
-    "mug": GraspPose(0.08, math.pi / 2, 0.006, along=-0.037),
+    # vessels by the wall nearest the robot (world -x side), one finger inside, one outside: an open hand
+    # (8 cm) clears a 6 mm wall by 3.7 cm on each side, around the whole bowl by 6 mm only
+    "bowl": GraspPose(0.035, math.pi / 2, 0.006, along=-0.031, round=True),
+    "mug": GraspPose(0.08, math.pi / 2, 0.006, along=-0.037, round=True),
     # near the top, so that with the tube standing in the mug the fingertips open above the mug's rim
     "toothpaste": GraspPose(0.085, math.pi / 2, 0.022),
     # on the handle 3.5 cm towards the blade: near the centre of mass (2.3 cm), and far enough from the
