@@ -7,6 +7,7 @@ import json
 import numpy as np
 import pytest
 from numpy.testing import assert_allclose
+from scipy.spatial.transform import Rotation
 
 from taskcond.conditions import (
     Collision,
@@ -20,6 +21,7 @@ from taskcond.dmp import rollout
 from taskcond.execution.decompose import DecompositionError, parse_plan
 from taskcond.execution.executor import Landing, allowed_for_arms, landings
 from taskcond.execution.skills import (
+    HALF_TURN,
     Demonstration,
     SkillError,
     SkillLibrary,
@@ -93,7 +95,9 @@ def test_segment_goals_follow_the_target_and_the_demonstrated_displacement() -> 
     # the learned DMP reproduces the approach from the demonstrated start (Eq. 1-3)
     path = rollout(approach.dmp, approach.dmp.y0, approach.dmp.goal, n_steps=60).positions
     assert_allclose(path[-1], approach.dmp.goal, atol=2e-3)
-    assert lift.orientation(0.5, np.array([0.0, 1.0, 0.0, 0.0])) @ [0.0, 1.0, 0.0, 0.0] == pytest.approx(1.0)
+    # the same rotation (q and -q are one orientation)
+    twin = lift.orientation(0.5, np.array([0.0, 1.0, 0.0, 0.0]))
+    assert abs(twin @ [0.0, 1.0, 0.0, 0.0]) == pytest.approx(1.0)
 
 
 def test_approach_orientation_turns_from_the_start_to_the_demonstrated_one() -> None:
@@ -275,3 +279,18 @@ def test_a_collision_of_the_gripper_is_allowed_for_every_arm_of_a_multi_arm_skil
     both = allowed_for_arms(allowed, ("gripper", "kinova gripper"))
     assert both == {*allowed, Collision("kinova gripper", "cloth")}
     assert allowed_for_arms(allowed, ("gripper",)) == set(allowed)
+
+
+def test_a_piece_keeps_the_half_turn_twin_of_its_orientation_nearest_the_start() -> None:
+    """A parallel gripper half a turn about its own axis holds the same way: an approach that ends in the
+    demonstrated orientation, started 0.1 rad short of its half-turn twin, ends in the twin (turning
+    0.1 rad) instead of turning the hand, and what it holds, nearly half a turn round."""
+    approach = learn_skill(_grasp_demo()).segments[0]
+    end = Rotation.from_quat(approach.orientations[-1, :4])
+    first = Rotation.from_quat(approach.orientations[0, :4])
+    start = first * Rotation.from_rotvec([0.0, 0.0, np.pi - 0.1])
+    arrived = Rotation.from_quat(approach.orientation(1.0, start.as_quat()))
+    assert_allclose((arrived.inv() * end * HALF_TURN).magnitude(), 0.0, atol=1e-6)
+    near = first * Rotation.from_rotvec([0.0, 0.0, 0.1])
+    arrived = Rotation.from_quat(approach.orientation(1.0, near.as_quat()))
+    assert_allclose((arrived.inv() * end).magnitude(), 0.0, atol=1e-6)

@@ -141,18 +141,33 @@ class Segment:
         The demonstrated profile R_d(s) of each arm is carried over as ``Δ(s) R_d(s)``. For a relative
         piece Δ is the constant world-frame rotation between the new and the demonstrated start; for the
         approach it is slerped from that rotation to identity, so the hand arrives in the demonstrated
-        orientation relative to the world (the target's frame)."""
+        orientation relative to the world (the target's frame). A parallel gripper turned half a turn
+        about its own axis (its z) holds the same way, so R_d is taken as it was or half a turn turned,
+        whichever starts nearer to ``start``: a hand holding a bowl by its wall then keeps the bowl on its
+        side instead of swinging it round the hand."""
         s = np.clip(np.asarray(fraction, dtype=float), 0.0, 1.0)
         u = np.atleast_1d(s)
         weight = 1.0 - u * u * (3 - 2 * u) if self.anchor == "target" else np.ones_like(u)
         start = np.asarray(start, float)
         arms = []
         for arm, profile in enumerate(self._profiles):
+            here = Rotation.from_quat(start[4 * arm : 4 * arm + 4])
             first = Rotation.from_quat(self.orientations[0, 4 * arm : 4 * arm + 4])
-            offset = (Rotation.from_quat(start[4 * arm : 4 * arm + 4]) * first.inv()).as_rotvec()
-            arms.append((Rotation.from_rotvec(weight[:, None] * offset[None, :]) * profile(u)).as_quat())
+            twin = (
+                HALF_TURN
+                if (here.inv() * first * HALF_TURN).magnitude() < (here.inv() * first).magnitude()
+                else Rotation.identity()
+            )
+            offset = (here * (first * twin).inv()).as_rotvec()
+            arms.append(
+                (Rotation.from_rotvec(weight[:, None] * offset[None, :]) * profile(u) * twin).as_quat()
+            )
         quats = np.concatenate(arms, axis=1)
         return quats if s.ndim else quats[0]
+
+
+HALF_TURN = Rotation.from_rotvec([0.0, 0.0, np.pi])
+"""Half a turn about the gripper's own z axis (its approach axis): a parallel gripper's twin pose."""
 
 
 @dataclass(frozen=True, eq=False)
