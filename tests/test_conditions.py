@@ -12,6 +12,7 @@ from taskcond.conditions import (
     Relation,
     SpatialRelation,
     TaskCondition,
+    contradictions,
     parse_predicate,
 )
 from taskcond.examples import example_conditions
@@ -138,3 +139,27 @@ def test_malformed_json_is_refused_with_the_reason():
             '{"task_name": "x", "relevant_objects": [], "pre_conditions": [], "post_conditions": [],'
             ' "collisions": [["a"]]}'
         )
+
+
+@pytest.mark.parametrize(
+    ("conditions", "clash"),
+    [
+        (["A inside B", "B inside A"], ("A inside B", "B inside A")),
+        (["A above B", "A below B"], ("A above B", "A below B")),
+        (["A above B", "B above A"], ("A above B", "B above A")),
+        (["A in front of B", "B in front of A"], ("A in front of B", "B in front of A")),
+        (["gripper grasping A", "gripper not grasping"], ("gripper grasping A", "gripper not grasping")),
+        (["gripper grasping A", "gripper grasping B"], ("gripper grasping A", "gripper grasping B")),
+        (["B open", "A inside B", "B closed"], ("B open", "B closed")),
+    ],
+)
+def test_contradictions_by_the_vocabulary_meaning(conditions, clash):
+    preds = [parse_predicate(c) for c in conditions]
+    assert [(str(a), str(b)) for a, b in contradictions(preds)] == [tuple(c.lower() for c in clash)]
+
+
+def test_no_contradiction_in_any_example_or_in_equivalent_relations():
+    for cond in example_conditions().values():
+        assert contradictions(cond.pre_conditions) == contradictions(cond.post_conditions) == []
+    same = ("A above B", "B below A", "A inside B", "A above C", "A open", "B open", "gripper grasping A")
+    assert contradictions([parse_predicate(c) for c in same]) == []

@@ -104,6 +104,12 @@ def test_parse_answer_maps_letters_back_and_checks_form_only():
          "missing from 'Relevant objects:'"),
         (GOOD_SPATIAL.replace("gripper and A", "A and A"), "spatial", "cannot collide with itself"),
         (GOOD_SPATIAL.replace("A inside B", "A inside A"), "spatial", "relation with itself"),
+        (GOOD_SPATIAL.replace("gripper inside B", "B inside A"), "spatial",
+         "post-conditions 'A inside B' and 'B inside A' contradict each other"),
+        (GOOD_STATE.replace("  B open\nPost", "  B open\n  B closed\nPost"), "state",
+         "pre-conditions 'B open' and 'B closed' contradict"),
+        (GOOD_STATE.replace("  B open\nPost", "  gripper not grasping\nPost"), "state",
+         "'gripper grasping A' and 'gripper not grasping' contradict"),
     ],
 )  # fmt: skip
 def test_parse_answer_refuses_malformed_answers(answer, chat, message):
@@ -233,3 +239,36 @@ def letter_example_text(chat, pid):
 
     spatial = chat == "spatial"
     return letter_example(pid).only(spatial).to_text(include_collisions=spatial)
+
+
+def test_prompt_version_v4_shows_worked_reasoning_of_the_shown_examples_only():
+    """v4: for a left-out primitive every shown example reasons in one line before its answer; the left-out
+    example's reasoning is left out with it, so the model reasons about the new primitive itself."""
+    from taskcond.generator import load_reasons
+
+    task = parse_task("open top drawer")
+    gen = ConditionGenerator(Replay([]), prompt_version="v4")
+    for chat in ("spatial", "state"):
+        reasons = load_reasons(chat, "v4")
+        assert reasons is not None and len(reasons) == len(PRIMITIVES)
+        assert gen.prompt(chat, task) == ConditionGenerator(Replay([])).prompt(chat, task)  # generation: v1
+        loo = gen.prompt(chat, task, exclude=["open"])
+        assert loo.count("Reasoning: ") == len(PRIMITIVES) - 1
+        assert f"Task name: close A\nReasoning: {reasons['close A']}\nRelevant objects: A, gripper" in loo
+        assert loo.count("Task name: open A") == 1  # the question only
+        assert "First, decide which objects are relevant" in loo  # Listing 4's chain-of-thought prompt
+        assert loo.rstrip().endswith("Q: Task name: open A")
+    assert load_reasons("state", "v1") is None
+
+
+def test_reasoning_before_the_answer_is_not_parsed():
+    task = parse_task("move bottle into box")
+    answer = "Reason: B is a container, so it stays open.\n" + GOOD_STATE
+    cond = parse_answer(answer, "state", task, reasoning=True)
+    assert cond.matches(reference_condition(task).only(spatial=False))
+    with pytest.raises(ConditionError, match="unexpected line 'Reason: B is a container"):
+        parse_answer(answer, "state", task)
+    with pytest.raises(ConditionError, match="unexpected line"):
+        parse_answer("Reasoning: none of it fits.\nI cannot answer.", "state", task, reasoning=True)
+    grammar = answer_grammar("state", task, reasoning=True)
+    assert grammar.startswith('root ::= "Reasoning: " [^\\n]+ "\\n" "Relevant objects: "')

@@ -128,6 +128,44 @@ def is_spatial(pred: Predicate) -> bool:
     return isinstance(pred, SpatialRelation)
 
 
+_EXCLUDED_BY: dict[Relation, tuple[tuple[bool, Relation], ...]] = {
+    Relation.INSIDE: ((True, Relation.INSIDE),),
+    Relation.ABOVE: ((True, Relation.ABOVE), (False, Relation.BELOW)),
+    Relation.BELOW: ((True, Relation.BELOW), (False, Relation.ABOVE)),
+    Relation.IN_FRONT_OF: ((True, Relation.IN_FRONT_OF),),
+}
+"""Relation → the relations it rules out between the same two objects, as ``(swapped, relation)``: with
+``swapped`` the pair reversed (``A inside B`` rules out ``B inside A``), else the same order (``A above B``
+rules out ``A below B``)."""
+
+
+def contradictions(preds: Iterable[Predicate]) -> list[tuple[Predicate, Predicate]]:
+    """The pairs of ``preds`` that cannot hold at the same time by the vocabulary's meaning alone (§III-A.1):
+    one gripper grasping two things or grasping and not grasping, a container both open and closed, a
+    relation with its converse (``A inside B`` and ``B inside A``; likewise above, below, in front of), or
+    ``A above B`` with ``A below B``. It knows no primitive: a set of conditions without such a pair may
+    still be wrong for its task."""
+    items = list(dict.fromkeys(preds))
+    found = []
+    for i, a in enumerate(items):
+        for b in items[i + 1 :]:
+            if isinstance(a, GripperState) and isinstance(b, GripperState):
+                clash = a.gripper == b.gripper
+            elif isinstance(a, ContainerState) and isinstance(b, ContainerState):
+                clash = a.container == b.container
+            elif isinstance(a, SpatialRelation) and isinstance(b, SpatialRelation):
+                clash = any(
+                    (b.subject, b.reference) == ((a.reference, a.subject) if swapped else a.objects)
+                    and b.relation == relation
+                    for swapped, relation in _EXCLUDED_BY[a.relation]
+                )
+            else:
+                clash = False
+            if clash:
+                found.append((a, b))
+    return found
+
+
 def parse_predicate(text: str) -> Predicate:
     """Parse one condition string (any case and spacing) into a predicate.
 

@@ -33,6 +33,7 @@ from taskcond.conditions import (
     GripperState,
     SpatialRelation,
     TaskCondition,
+    contradictions,
     is_spatial,
 )
 from taskcond.examples import letter_example
@@ -44,6 +45,8 @@ CHATS: tuple[Chat, ...] = ("spatial", "state")
 PROMPT_VERSION = "v1"
 ExampleOrder = Literal["registry", "similar"]
 GrammarUse = Literal["always", "fallback", "never"]
+REASONING = "Reasoning:"
+"""The line of a worked example (and of an answer to it) that gives the reasoning before the answer."""
 STOP = ("\n\n",)
 """An answer has no blank line; one marks the model starting another example."""
 
@@ -74,17 +77,40 @@ def similarity(a: Primitive, b: Primitive) -> tuple[int, int]:
     return (int(a.n_objects == b.n_objects), len(words(a) & words(b)))
 
 
+@cache
+def load_reasons(chat: Chat, version: str = PROMPT_VERSION) -> dict[str, str] | None:
+    """The worked reasoning of a prompt version's examples, ``letter task name → one-line reason``, from
+    ``taskcond/prompts/<version>/reasons_<chat>.txt`` (lines ``grasp A: ...``); ``None`` when the version
+    shows bare examples. Each reason speaks of its own example only, so leaving a primitive's example
+    out leaves its reason out too."""
+    path = resources.files("taskcond").joinpath(f"prompts/{version}/reasons_{chat}.txt")
+    if not path.is_file():
+        return None
+    reasons: dict[str, str] = {}
+    for line in path.read_text(encoding="utf-8").splitlines():
+        name, sep, reason = line.partition(":")
+        if sep and reason.strip():
+            reasons[" ".join(name.split())] = " ".join(reason.split())
+    missing = [pid for pid in PRIMITIVES if letter_example(pid).task_name not in reasons]
+    if missing:
+        raise ValueError(f"prompt version {version!r}: reasons_{chat}.txt lacks the examples of {missing}")
+    return reasons
+
+
 def examples_block(
     chat: Chat,
     exclude: Iterable[str] = (),
     order_seed: int | None = None,
     nearest: Primitive | None = None,
+    reasons: dict[str, str] | None = None,
 ) -> str:
     """The examples part of a chat's prompt: every primitive's letter example not in ``exclude``, cut to
     the chat's half of the condition, in registry order (so prompts share a long cacheable prefix).
     ``order_seed`` shuffles their order (a trial of the evaluation). With ``nearest`` (the question's
     primitive), the examples are then stably sorted by :func:`similarity` to it, the most similar last,
-    next to the question."""
+    next to the question. With ``reasons`` (see :func:`load_reasons`), each example carries a
+    ``Reasoning:`` line after its task name: a worked few-shot chain of thought (Wei et al., 2022) that the
+    model imitates before it answers."""
     excluded = set(exclude)
     ids = [pid for pid in PRIMITIVES if pid not in excluded]
     if order_seed is not None:
@@ -92,16 +118,23 @@ def examples_block(
     if nearest is not None:
         ids.sort(key=lambda pid: similarity(PRIMITIVES[pid], nearest))
     spatial = chat == "spatial"
-    return "\n\n".join(letter_example(pid).only(spatial).to_text(include_collisions=spatial) for pid in ids)
+    blocks = []
+    for pid in ids:
+        example = letter_example(pid)
+        name_line, rest = example.only(spatial).to_text(include_collisions=spatial).split("\n", 1)
+        reason = [f"Reasoning: {reasons[example.task_name]}"] if reasons else []
+        blocks.append("\n".join([name_line, *reason, rest]))
+    return "\n\n".join(blocks)
 
 
 def _alternatives(options: Iterable[str]) -> str:
     return " | ".join(f'"{o}"' for o in options)
 
 
-def answer_grammar(chat: Chat, task: ParsedTask, max_lines: int = 6) -> str:
+def answer_grammar(chat: Chat, task: ParsedTask, max_lines: int = 6, reasoning: bool = False) -> str:
     """GBNF grammar of a valid answer for ``chat``: the Listing 1 format with only the task's letters, the
-    gripper, and the chat's half of the vocabulary."""
+    gripper, and the chat's half of the vocabulary; with ``reasoning``, after one free ``Reasoning:``
+    line."""
     letters = list(task.letters().values())
     objects = [*letters, GRIPPER]
     if chat == "spatial":
@@ -117,8 +150,10 @@ def answer_grammar(chat: Chat, task: ParsedTask, max_lines: int = 6) -> str:
         cond = '"gripper grasping " item | "gripper not grasping" | item " open" | item " closed"'
         extra = [f"item ::= {_alternatives(letters)}"]
         tail = ' "\\n"'  # a blank line ends the answer, as it ends each example
+    head = f'"{REASONING} " [^\\n]+ "\\n" ' if reasoning else ""
     rules = [
-        f'root ::= "Relevant objects: " objs "\\nPre-conditions:\\n" conds "Post-conditions:\\n" conds{tail}',
+        f'root ::= {head}"Relevant objects: " objs "\\nPre-conditions:\\n" conds '
+        f'"Post-conditions:\\n" conds{tail}',
         f'objs ::= obj (", " obj){{0,{len(objects) - 1}}}',
         f'conds ::= "  none\\n" | ("  " cond "\\n"){{1,{max_lines}}}',
         f"cond ::= {cond}",
@@ -128,16 +163,23 @@ def answer_grammar(chat: Chat, task: ParsedTask, max_lines: int = 6) -> str:
     return "\n".join(rules) + "\n"
 
 
-def parse_answer(text: str, chat: Chat, task: ParsedTask) -> TaskCondition:
+def parse_answer(text: str, chat: Chat, task: ParsedTask, reasoning: bool = False) -> TaskCondition:
     """Validate one chat's answer and map its letters back to the task's objects.
 
-    Checks form only: the Listing 1 layout, the vocabulary, the chat's half of it, and that every object
-    is one of the task's letters or the gripper. Raises :class:`ConditionError` saying what is wrong.
+    Checks form only: the Listing 1 layout, the vocabulary, the chat's half of it, that every object is
+    one of the task's letters or the gripper, and that no two conditions of one list contradict each other
+    by the vocabulary's meaning (:func:`~taskcond.conditions.contradictions`; never what a primitive
+    needs). With ``reasoning`` (prompts whose examples reason first),
+    whatever precedes the ``Relevant objects:`` line is the model's reasoning and is not parsed. Raises
+    :class:`ConditionError` saying what is wrong.
     """
     body = text.strip().strip("`").strip()
     if not body:
         raise ConditionError("the answer is empty")
     lines = [ln for ln in body.splitlines() if not ln.strip().lower().startswith(("q:", "a:"))]
+    if reasoning:
+        starts = [i for i, ln in enumerate(lines) if ln.strip().lower().startswith("relevant objects:")]
+        lines = lines[starts[0] :] if starts else [ln for ln in lines if not ln.startswith(REASONING)]
     cond = TaskCondition.from_text("\n".join(lines), task_name=task.letter_name)
     to_object = {letter.lower(): obj for obj, letter in task.letters().items()}
     allowed = {*to_object, GRIPPER}
@@ -171,6 +213,11 @@ def parse_answer(text: str, chat: Chat, task: ParsedTask) -> TaskCondition:
     for pred in (*cond.pre_conditions, *cond.post_conditions):
         if isinstance(pred, SpatialRelation) and pred.subject == pred.reference:
             raise ConditionError(f"{pred}: an object cannot be in a relation with itself")
+    for title, preds in (("pre-conditions", cond.pre_conditions), ("post-conditions", cond.post_conditions)):
+        clashes = contradictions(preds)
+        if clashes:
+            a, b = (" ".join(w.upper() if len(w) == 1 else w for w in str(x).split()) for x in clashes[0])
+            raise ConditionError(f"the {title} '{a}' and '{b}' contradict each other: keep at most one")
     for col in cond.collisions:
         if col.a == col.b:
             raise ConditionError(f"collision {col}: an object cannot collide with itself")
@@ -260,12 +307,17 @@ class ConditionGenerator:
         self, chat: Chat, task: ParsedTask, exclude: Iterable[str] = (), order_seed: int | None = None
     ) -> str:
         """The full prompt of one chat for ``task``; chain-of-thought (Listing 4) when the task's primitive
-        is excluded."""
+        is excluded, its examples then with their worked reasoning if the prompt version has it
+        (:func:`load_reasons`)."""
         excluded = set(exclude)
-        name = f"{chat}_cot" if task.primitive.id in excluded else chat
-        return load_prompt(name, self.prompt_version).substitute(
+        cot = task.primitive.id in excluded
+        return load_prompt(f"{chat}_cot" if cot else chat, self.prompt_version).substitute(
             examples=examples_block(
-                chat, excluded, order_seed, task.primitive if self.example_order == "similar" else None
+                chat,
+                excluded,
+                order_seed,
+                task.primitive if self.example_order == "similar" else None,
+                load_reasons(chat, self.prompt_version) if cot else None,
             ),
             task=task.letter_name,
         )
@@ -280,7 +332,8 @@ class ConditionGenerator:
         transcript: ChatTranscript,
     ) -> TaskCondition:
         messages = [ChatMessage("user", prompt)]
-        grammar = answer_grammar(chat, task) if self.grammar != "never" else None
+        reasoning = REASONING in prompt
+        grammar = answer_grammar(chat, task, reasoning=reasoning) if self.grammar != "never" else None
         for attempt in range(self.max_retries + 1):
             constrained = self.grammar == "always" or (self.grammar == "fallback" and attempt > 0)
             request = ChatRequest(
@@ -293,7 +346,7 @@ class ConditionGenerator:
             transcript.cached &= response.cached
             transcript.answers.append(response.text)
             try:
-                return parse_answer(response.text, chat, task)
+                return parse_answer(response.text, chat, task, reasoning)
             except ConditionError as exc:
                 transcript.errors.append(str(exc))
                 retry = load_prompt("retry", self.prompt_version).substitute(
@@ -361,6 +414,7 @@ __all__ = [
     "answer_grammar",
     "examples_block",
     "load_prompt",
+    "load_reasons",
     "parse_answer",
     "prompt_versions",
     "similarity",
