@@ -39,7 +39,7 @@ runner = CliRunner()
         (["oracle", "grasp-bottle", "--video", "x.avi"], "error: --video x.avi: use a .mp4 or .gif"),
         (
             ["conditions", "open box", "--prompt-version", "v9"],
-            "error: --prompt-version 'v9': use one of v1, v2, v3",
+            "error: --prompt-version 'v9': use one of v1, v2, v3, v4",
         ),
         (["run", "LHT1", "--method", "magic"], "error: --method 'magic': use one of llm, env, none"),
         (["learn", "--task", "grasp-unicorn"], "error: unknown object(s) 'unicorn' for primitive 'grasp'"),

@@ -15,6 +15,7 @@ from typing import Annotated, NoReturn
 import typer
 
 from taskcond.conditions import ConditionError
+from taskcond.generator import PROMPT_VERSION
 from taskcond.llm.base import LLMError
 from taskcond.primitives import PRIMITIVES, TaskNameError, parse_task
 
@@ -50,7 +51,8 @@ PromptVersionOption = Annotated[
     str,
     typer.Option(
         "--prompt-version",
-        help="Prompt set: v1 (the paper's Listings 2-4, default), v2 (v1 with the definitions of pre/post-"
+        help="Prompt set: v4 (default: v1 whose chain-of-thought prompt shows each example with a one-line "
+        "worked reasoning), v1 (the paper's Listings 2-4), v2 (v1 with the definitions of pre/post-"
         "conditions and an analogy step in the chain-of-thought prompt), v3 (no chain-of-thought text).",
     ),
 ]
@@ -62,7 +64,11 @@ def fail(message: str) -> NoReturn:
 
 
 def _generator(
-    llm: str | None, samples: int, no_cache: bool, grammar: str = "fallback", prompt_version: str = "v1"
+    llm: str | None,
+    samples: int,
+    no_cache: bool,
+    grammar: str = "fallback",
+    prompt_version: str = PROMPT_VERSION,
 ):
     from dataclasses import replace
 
@@ -100,7 +106,7 @@ def conditions(
         ),
     ] = "fallback",
     seed: Annotated[int, typer.Option("--seed", help="Sampling seed.")] = 0,
-    prompt_version: PromptVersionOption = "v1",
+    prompt_version: PromptVersionOption = PROMPT_VERSION,
 ) -> None:
     """Generate the task condition of TASK with the LLM (paper §III-B/C) and print it."""
     try:
@@ -204,7 +210,7 @@ def eval_conditions(
         list[str] | None,
         typer.Option("--primitive", help=f"Only these primitives (repeatable): {', '.join(PRIMITIVES)}."),
     ] = None,
-    prompt_version: PromptVersionOption = "v1",
+    prompt_version: PromptVersionOption = PROMPT_VERSION,
 ) -> None:
     """Generation (all examples) and generalization (leave-one-out) accuracy per primitive (Table II)."""
     from tqdm import tqdm

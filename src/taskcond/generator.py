@@ -7,7 +7,9 @@ merged into one :class:`~taskcond.conditions.TaskCondition`.
 
 *Generation* shows the LLM an example of every primitive. *Generalization* leaves out the examples of
 the task's own primitive (``exclude``, the paper's Table II protocol) and uses the chain-of-thought prompt
-of Listing 4. Beyond the paper, the answer's form is guaranteed: a GBNF grammar constrains decoding where
+of Listing 4; in prompt version v4 (the default) each example shown there carries a one-line worked
+reasoning (few-shot chain of thought, Wei et al. 2022), so the model reasons about the new primitive in
+the same way before it answers. A reason speaks of its own example only and leaves with it. Beyond the paper, the answer's form is guaranteed: a GBNF grammar constrains decoding where
 the backend supports it, and every answer passes a validator that checks the vocabulary and the task's
 objects only (never the content) and asks again with the error shown, within a bound. Optional
 self-consistency draws ``samples`` answers per chat and keeps each condition a majority of them has.
@@ -42,7 +44,7 @@ from taskcond.primitives import LETTERS, PRIMITIVES, ParsedTask, Primitive, get_
 
 Chat = Literal["spatial", "state"]
 CHATS: tuple[Chat, ...] = ("spatial", "state")
-PROMPT_VERSION = "v1"
+PROMPT_VERSION = "v4"
 ExampleOrder = Literal["registry", "similar"]
 GrammarUse = Literal["always", "fallback", "never"]
 REASONING = "Reasoning:"
@@ -353,7 +355,10 @@ class ConditionGenerator:
                     error=exc, task=task.letter_name, objects=", ".join([*task.letters().values(), GRIPPER])
                 )
                 messages += [ChatMessage("assistant", response.text), ChatMessage("user", retry)]
-        last = " ".join(transcript.answers[-1].split())[:120]
+        last = transcript.answers[-1]
+        if reasoning:  # the part the validator refused, not the reasoning before it
+            last = last[last.find("Relevant objects:") :] if "Relevant objects:" in last else last
+        last = " ".join(last.split())[:120]
         raise LLMError(
             f"{self.backend.model} gave no valid {chat} answer for {task.name!r} in {self.max_retries + 1} "
             f"attempts; last answer {last!r}: {transcript.errors[-1]}",
