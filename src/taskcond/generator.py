@@ -9,9 +9,12 @@ merged into one :class:`~taskcond.conditions.TaskCondition`.
 the task's own primitive (``exclude``, the paper's Table II protocol) and uses the chain-of-thought prompt
 of Listing 4; in prompt version v4 (the default) each example shown there carries a one-line worked
 reasoning (few-shot chain of thought, Wei et al. 2022), so the model reasons about the new primitive in
-the same way before it answers. A reason speaks of its own example only and leaves with it. Beyond the paper, the answer's form is guaranteed: a GBNF grammar constrains decoding where
-the backend supports it, and every answer passes a validator that checks the vocabulary and the task's
-objects only (never the content) and asks again with the error shown, within a bound. Optional
+the same way before it answers. A reason speaks of its own example only and leaves with it.
+
+Beyond the paper, the answer's form is guaranteed: a GBNF grammar constrains decoding where the backend
+supports it, and every answer passes a validator that checks the vocabulary, the task's objects and that
+no two conditions contradict each other, never the content, and asks again with the error shown, within
+a bound. Optional
 self-consistency draws ``samples`` answers per chat and keeps each condition a majority of them has.
 """
 
