@@ -163,6 +163,8 @@ def test_grammar_names_only_the_tasks_letters():
     assert '"in front of"' in grammar
     state = answer_grammar("state", parse_task("grasp bottle"))
     assert 'item ::= "A"' in state and '"B"' not in state
+    two = answer_grammar("state", parse_task("move bottle into box"))  # one state per thing, in order
+    assert 'conds ::= "  none\\n" | gripper state-a? state-b? | state-a state-b? | state-b\n' in two
 
 
 @pytest.mark.llm

@@ -139,7 +139,8 @@ def _alternatives(options: Iterable[str]) -> str:
 def answer_grammar(chat: Chat, task: ParsedTask, max_lines: int = 6, reasoning: bool = False) -> str:
     """GBNF grammar of a valid answer for ``chat``: the Listing 1 format with only the task's letters, the
     gripper, and the chat's half of the vocabulary; with ``reasoning``, after one free ``Reasoning:``
-    line."""
+    line. State answers are written in the examples' order (the gripper, then each container), which
+    leaves no room for two states of one thing."""
     letters = list(task.letters().values())
     objects = [*letters, GRIPPER]
     if chat == "spatial":
@@ -151,8 +152,22 @@ def answer_grammar(chat: Chat, task: ParsedTask, max_lines: int = 6, reasoning: 
         ]
         extra.append('colls ::= "none" | pair (", " pair){0,5}')
         tail = ' "Collisions: " colls "\\n"'
+        conds = [
+            f'conds ::= "  none\\n" | ("  " cond "\\n"){{1,{max_lines}}}',
+            f"cond ::= {cond}",
+        ]
     else:
-        cond = '"gripper grasping " item | "gripper not grasping" | item " open" | item " closed"'
+        # at most one gripper line, then at most one state per container in letter order (the order of
+        # the examples): no answer can grasp and not grasp, or leave a container both open and closed
+        states = [f"state-{letter.lower()}" for letter in letters]
+        starts = ["gripper " + " ".join(f"{r}?" for r in states)]
+        starts += [" ".join([r, *(f"{q}?" for q in states[i + 1 :])]) for i, r in enumerate(states)]
+        conds = [f'conds ::= "  none\\n" | {" | ".join(starts)}']
+        conds.append('gripper ::= "  gripper grasping " item "\\n" | "  gripper not grasping\\n"')
+        conds += [
+            f'{r} ::= "  {letter} open\\n" | "  {letter} closed\\n"'
+            for r, letter in zip(states, letters, strict=True)
+        ]
         extra = [f"item ::= {_alternatives(letters)}"]
         tail = ' "\\n"'  # a blank line ends the answer, as it ends each example
     head = f'"{REASONING} " [^\\n]+ "\\n" ' if reasoning else ""
@@ -160,8 +175,7 @@ def answer_grammar(chat: Chat, task: ParsedTask, max_lines: int = 6, reasoning: 
         f'root ::= {head}"Relevant objects: " objs "\\nPre-conditions:\\n" conds '
         f'"Post-conditions:\\n" conds{tail}',
         f'objs ::= obj (", " obj){{0,{len(objects) - 1}}}',
-        f'conds ::= "  none\\n" | ("  " cond "\\n"){{1,{max_lines}}}',
-        f"cond ::= {cond}",
+        *conds,
         f"obj ::= {_alternatives(objects)}",
         *extra,
     ]
