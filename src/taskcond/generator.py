@@ -14,8 +14,8 @@ the same way before it answers. A reason speaks of its own example only and leav
 Beyond the paper, the answer's form is guaranteed: a GBNF grammar constrains decoding where the backend
 supports it, and every answer passes a validator that checks the vocabulary, the task's objects and that
 no two conditions contradict each other, never the content, and asks again with the error shown, within
-a bound. Optional
-self-consistency draws ``samples`` answers per chat and keeps each condition a majority of them has.
+a bound. Optional self-consistency draws ``samples`` answers per chat and keeps each condition a
+majority of them has.
 """
 
 from __future__ import annotations
@@ -182,23 +182,31 @@ def answer_grammar(chat: Chat, task: ParsedTask, max_lines: int = 6, reasoning: 
     return "\n".join(rules) + "\n"
 
 
+def _after_reasoning(lines: list[str]) -> list[str]:
+    """The lines of an answer from its ``Relevant objects:`` line on (what precedes it is the model's
+    reasoning); without that line, every line but the ``Reasoning:`` ones."""
+    for i, line in enumerate(lines):
+        if line.strip().lower().startswith("relevant objects:"):
+            return lines[i:]
+    return [ln for ln in lines if not ln.startswith(REASONING)]
+
+
 def parse_answer(text: str, chat: Chat, task: ParsedTask, reasoning: bool = False) -> TaskCondition:
     """Validate one chat's answer and map its letters back to the task's objects.
 
     Checks form only: the Listing 1 layout, the vocabulary, the chat's half of it, that every object is
     one of the task's letters or the gripper, and that no two conditions of one list contradict each other
     by the vocabulary's meaning (:func:`~taskcond.conditions.contradictions`; never what a primitive
-    needs). With ``reasoning`` (prompts whose examples reason first),
-    whatever precedes the ``Relevant objects:`` line is the model's reasoning and is not parsed. Raises
-    :class:`ConditionError` saying what is wrong.
+    needs). With ``reasoning`` (prompts whose examples reason first), whatever precedes the ``Relevant
+    objects:`` line is the model's reasoning and is not parsed. Raises :class:`ConditionError` saying
+    what is wrong.
     """
     body = text.strip().strip("`").strip()
     if not body:
         raise ConditionError("the answer is empty")
     lines = [ln for ln in body.splitlines() if not ln.strip().lower().startswith(("q:", "a:"))]
     if reasoning:
-        starts = [i for i, ln in enumerate(lines) if ln.strip().lower().startswith("relevant objects:")]
-        lines = lines[starts[0] :] if starts else [ln for ln in lines if not ln.startswith(REASONING)]
+        lines = _after_reasoning(lines)
     cond = TaskCondition.from_text("\n".join(lines), task_name=task.letter_name)
     to_object = {letter.lower(): obj for obj, letter in task.letters().items()}
     allowed = {*to_object, GRIPPER}
@@ -372,10 +380,10 @@ class ConditionGenerator:
                     error=exc, task=task.letter_name, objects=", ".join([*task.letters().values(), GRIPPER])
                 )
                 messages += [ChatMessage("assistant", response.text), ChatMessage("user", retry)]
-        last = transcript.answers[-1]
+        lines = transcript.answers[-1].splitlines()
         if reasoning:  # the part the validator refused, not the reasoning before it
-            last = last[last.find("Relevant objects:") :] if "Relevant objects:" in last else last
-        last = " ".join(last.split())[:120]
+            lines = _after_reasoning(lines)
+        last = " ".join(" ".join(lines).split())[:120]
         raise LLMError(
             f"{self.backend.model} gave no valid {chat} answer for {task.name!r} in {self.max_retries + 1} "
             f"attempts; last answer {last!r}: {transcript.errors[-1]}",
