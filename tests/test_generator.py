@@ -122,9 +122,21 @@ def test_invalid_answer_is_retried_with_the_error_shown():
     result = ConditionGenerator(backend).generate("move bottle into box")
     assert result.condition.matches(reference_condition(parse_task("move bottle into box")))
     assert result.attempts == 3
-    retry = backend.requests[1].messages
-    assert [m.role for m in retry] == ["user", "assistant", "user"]
-    assert "not valid" in retry[2].content and "unexpected line" in retry[2].content
+    first, retry = backend.requests[0].messages, backend.requests[1].messages
+    assert retry[: len(first)] == first
+    assert [m.role for m in retry[len(first) :]] == ["assistant", "user"]
+    assert retry[-2].content == "Sure! Here you go."
+    assert "not valid" in retry[-1].content and "unexpected line" in retry[-1].content
+
+
+def test_a_second_retry_samples_instead_of_repeating_the_greedy_one():
+    """Greedy decoding of the same chat mostly repeats a refused answer; the second retry samples."""
+    backend = Replay(["nonsense", "nonsense", GOOD_SPATIAL, GOOD_STATE])
+    result = ConditionGenerator(backend, temperature=0.7).generate("move bottle into box", seed=5)
+    assert result.attempts == 4
+    assert [r.sampling.temperature for r in backend.requests] == [0.0, 0.0, 0.7, 0.0]
+    assert [r.sampling.seed for r in backend.requests] == [5, 6, 7, 5]
+    assert [r.grammar is not None for r in backend.requests] == [False, True, True, False]
 
 
 def test_retries_are_bounded_and_end_in_a_one_line_error():
@@ -261,6 +273,37 @@ def test_prompt_version_v4_shows_worked_reasoning_of_the_shown_examples_only():
         assert "First, decide which objects are relevant" in loo  # Listing 4's chain-of-thought prompt
         assert loo.rstrip().endswith("Q: Task name: open A")
     assert load_reasons("state", "v1") is None
+
+
+def test_prompt_version_v5_shows_generation_examples_as_earlier_turns_of_the_chat():
+    """v5: for a seen primitive the examples are the chat's earlier turns (task name asked, condition
+    answered), the question its last turn; a left-out primitive gets v4's one-message prompt."""
+    task = parse_task("move coffee mug into top drawer")
+    gen = ConditionGenerator(Replay([]), prompt_version="v5")
+    for chat in ("spatial", "state"):
+        messages = gen.messages(chat, task, order_seed=2)
+        assert [m.role for m in messages] == ["system", *["user", "assistant"] * len(PRIMITIVES), "user"]
+        assert "Remember to strictly follow the examples' format." in messages[0].content
+        assert "Task name" not in messages[0].content
+        assert messages[-1].content == "Task name: move A into B"
+        shown = [f"{q.content}\n{a.content}" for q, a in zip(messages[1:-1:2], messages[2:-1:2], strict=True)]
+        assert shown == examples_block(chat, order_seed=2).split("\n\n")
+        assert not any("coffee mug" in m.content or "drawer" in m.content for m in messages)
+        v4 = ConditionGenerator(Replay([]), prompt_version="v4")
+        loo = gen.messages(chat, task, exclude=["move_into"])
+        assert loo == v4.messages(chat, task, exclude=["move_into"])
+    assert "gripper grasping/not grasping" in gen.messages("state", task)[0].content
+
+
+def test_v5_turns_reach_the_backend_and_their_answers_are_validated():
+    invalid = "Relevant objects: A, B, gripper\nPre-conditions:\n  A tilted"
+    backend = Replay([invalid, GOOD_SPATIAL, GOOD_STATE])
+    result = ConditionGenerator(backend, prompt_version="v5").generate("move bottle into box")
+    assert result.condition.matches(reference_condition(parse_task("move bottle into box")))
+    assert backend.requests[0].messages[0].role == "system"
+    assert backend.requests[1].messages[-2].content.endswith("A tilted")
+    assert "not a condition: 'A tilted'" in backend.requests[1].messages[-1].content
+    assert result.transcripts[0].messages == backend.requests[0].messages
 
 
 def test_reasoning_before_the_answer_is_not_parsed():

@@ -189,6 +189,7 @@ def oracle(
         "successes": report.successes,
         "steps_per_second": round(report.steps_per_second, 1),
         "failures": dict(report.failures),
+        "failed_seeds": report.failed_seeds,
     }
     if as_json:
         typer.echo(json.dumps(out))
@@ -196,6 +197,7 @@ def oracle(
         typer.echo(
             f"{report.task}: {report.successes}/{report.episodes} succeeded "
             f"({report.steps_per_second:.0f} steps/s); failures: {dict(report.failures) or 'none'}"
+            + (f" (seeds {', '.join(map(str, report.failed_seeds))})" if report.failed_seeds else "")
         )
 
 

@@ -192,7 +192,8 @@ def parse_predicate(text: str) -> Predicate:
                 return ContainerState(container, is_open)
     raise ConditionError(
         f"not a condition: {text!r}; valid forms are 'A inside B', 'A above B', 'A below B', "
-        "'A in front of B', 'gripper grasping A', 'gripper not grasping', 'A open', 'A closed'"
+        "'A in front of B', 'gripper grasping A', 'gripper not grasping', 'A open', 'A closed', "
+        "or 'none' alone for an empty list"
     )
 
 

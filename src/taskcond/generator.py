@@ -102,20 +102,20 @@ def load_reasons(chat: Chat, version: str = PROMPT_VERSION) -> dict[str, str] | 
     return reasons
 
 
-def examples_block(
+def example_turns(
     chat: Chat,
     exclude: Iterable[str] = (),
     order_seed: int | None = None,
     nearest: Primitive | None = None,
     reasons: dict[str, str] | None = None,
-) -> str:
-    """The examples part of a chat's prompt: every primitive's letter example not in ``exclude``, cut to
-    the chat's half of the condition, in registry order (so prompts share a long cacheable prefix).
-    ``order_seed`` shuffles their order (a trial of the evaluation). With ``nearest`` (the question's
-    primitive), the examples are then stably sorted by :func:`similarity` to it, the most similar last,
-    next to the question. With ``reasons`` (see :func:`load_reasons`), each example carries a
-    ``Reasoning:`` line after its task name: a worked few-shot chain of thought (Wei et al., 2022) that the
-    model imitates before it answers."""
+) -> list[tuple[str, str]]:
+    """The examples of a chat's prompt as ``(task name line, answer)`` pairs: every primitive's letter
+    example not in ``exclude``, cut to the chat's half of the condition, in registry order (so prompts
+    share a long cacheable prefix). ``order_seed`` shuffles their order (a trial of the evaluation). With
+    ``nearest`` (the question's primitive), the examples are then stably sorted by :func:`similarity` to
+    it, the most similar last, next to the question. With ``reasons`` (see :func:`load_reasons`), each
+    answer opens with a ``Reasoning:`` line: a worked few-shot chain of thought (Wei et al., 2022) that
+    the model imitates before it answers."""
     excluded = set(exclude)
     ids = [pid for pid in PRIMITIVES if pid not in excluded]
     if order_seed is not None:
@@ -123,13 +123,26 @@ def examples_block(
     if nearest is not None:
         ids.sort(key=lambda pid: similarity(PRIMITIVES[pid], nearest))
     spatial = chat == "spatial"
-    blocks = []
+    turns = []
     for pid in ids:
         example = letter_example(pid)
         name_line, rest = example.only(spatial).to_text(include_collisions=spatial).split("\n", 1)
-        reason = [f"Reasoning: {reasons[example.task_name]}"] if reasons else []
-        blocks.append("\n".join([name_line, *reason, rest]))
-    return "\n\n".join(blocks)
+        reason = [f"{REASONING} {reasons[example.task_name]}"] if reasons else []
+        turns.append((name_line, "\n".join([*reason, rest])))
+    return turns
+
+
+def examples_block(
+    chat: Chat,
+    exclude: Iterable[str] = (),
+    order_seed: int | None = None,
+    nearest: Primitive | None = None,
+    reasons: dict[str, str] | None = None,
+) -> str:
+    """The examples part of a one-message prompt: the :func:`example_turns` as text, a blank line
+    between two examples."""
+    turns = example_turns(chat, exclude, order_seed, nearest, reasons)
+    return "\n\n".join(f"{name}\n{answer}" for name, answer in turns)
 
 
 def _alternatives(options: Iterable[str]) -> str:
@@ -278,7 +291,7 @@ class ChatTranscript:
     """What one chat asked and got: every answer in order (rejected ones with their errors)."""
 
     chat: Chat
-    prompt: str
+    messages: tuple[ChatMessage, ...]
     answers: list[str] = field(default_factory=list)
     errors: list[str] = field(default_factory=list)
     cached: bool = True
@@ -330,43 +343,57 @@ class ConditionGenerator:
     prompt_version: str = PROMPT_VERSION
     example_order: ExampleOrder = "registry"
 
+    def messages(
+        self, chat: Chat, task: ParsedTask, exclude: Iterable[str] = (), order_seed: int | None = None
+    ) -> tuple[ChatMessage, ...]:
+        """The opening messages of one chat for ``task``; chain-of-thought (Listing 4) when the task's
+        primitive is excluded, its examples then with their worked reasoning if the prompt version has it
+        (:func:`load_reasons`).
+
+        A prompt file with ``$examples`` is one user message holding the examples and the question (the
+        paper's layout). A prompt file without it is the system message of a few-shot chat (prompt v5's
+        generation): each example is a user turn (its task name) and an assistant turn (its answer), and
+        the question is the last user turn, so the model answers as it has answered before.
+        """
+        excluded = set(exclude)
+        cot = task.primitive.id in excluded
+        template = load_prompt(f"{chat}_cot" if cot else chat, self.prompt_version)
+        nearest = task.primitive if self.example_order == "similar" else None
+        reasons = load_reasons(chat, self.prompt_version) if cot else None
+        if "$examples" in template.template:
+            text = template.substitute(
+                examples=examples_block(chat, excluded, order_seed, nearest, reasons), task=task.letter_name
+            )
+            return (ChatMessage("user", text),)
+        turns = [ChatMessage("system", template.template.strip())]
+        for name, answer in example_turns(chat, excluded, order_seed, nearest, reasons):
+            turns += [ChatMessage("user", name), ChatMessage("assistant", answer)]
+        return (*turns, ChatMessage("user", f"Task name: {task.letter_name}"))
+
     def prompt(
         self, chat: Chat, task: ParsedTask, exclude: Iterable[str] = (), order_seed: int | None = None
     ) -> str:
-        """The full prompt of one chat for ``task``; chain-of-thought (Listing 4) when the task's primitive
-        is excluded, its examples then with their worked reasoning if the prompt version has it
-        (:func:`load_reasons`)."""
-        excluded = set(exclude)
-        cot = task.primitive.id in excluded
-        return load_prompt(f"{chat}_cot" if cot else chat, self.prompt_version).substitute(
-            examples=examples_block(
-                chat,
-                excluded,
-                order_seed,
-                task.primitive if self.example_order == "similar" else None,
-                load_reasons(chat, self.prompt_version) if cot else None,
-            ),
-            task=task.letter_name,
-        )
+        """The :meth:`messages` as one text, a blank line between two messages: the prompt itself in the
+        one-message layout."""
+        return "\n\n".join(m.content for m in self.messages(chat, task, exclude, order_seed))
 
     def _chat(
-        self,
-        chat: Chat,
-        task: ParsedTask,
-        prompt: str,
-        seed: int,
-        temperature: float,
-        transcript: ChatTranscript,
+        self, chat: Chat, task: ParsedTask, seed: int, temperature: float, transcript: ChatTranscript
     ) -> TaskCondition:
-        messages = [ChatMessage("user", prompt)]
-        reasoning = REASONING in prompt
+        messages = list(transcript.messages)
+        reasoning = any(REASONING in m.content for m in messages)
         grammar = answer_grammar(chat, task, reasoning=reasoning) if self.grammar != "never" else None
         for attempt in range(self.max_retries + 1):
             constrained = self.grammar == "always" or (self.grammar == "fallback" and attempt > 0)
+            resample = attempt >= 2  # a greedy second retry mostly repeats the first one
             request = ChatRequest(
                 messages=tuple(messages),
                 stop=STOP,
-                sampling=Sampling(temperature=temperature, max_tokens=160, seed=seed),
+                sampling=Sampling(
+                    temperature=max(temperature, self.temperature) if resample else temperature,
+                    max_tokens=160,
+                    seed=seed + attempt,
+                ),
                 grammar=grammar if constrained else None,
             )
             response = self.backend.chat(request)
@@ -416,14 +443,13 @@ class ConditionGenerator:
         parts: dict[Chat, TaskCondition] = {}
         transcripts = []
         for chat in CHATS:
-            prompt = self.prompt(chat, task, excluded, order_seed)
-            transcript = ChatTranscript(chat, prompt)
+            transcript = ChatTranscript(chat, self.messages(chat, task, excluded, order_seed))
             transcripts.append(transcript)
             if self.samples <= 1:
-                parts[chat] = self._chat(chat, task, prompt, seed, 0.0, transcript)
+                parts[chat] = self._chat(chat, task, seed, 0.0, transcript)
             else:
                 answers = [
-                    self._chat(chat, task, prompt, seed + i, self.temperature, transcript)
+                    self._chat(chat, task, seed + i, self.temperature, transcript)
                     for i in range(self.samples)
                 ]
                 parts[chat] = _majority(answers, task.name)
@@ -442,6 +468,7 @@ __all__ = [
     "ConditionGenerator",
     "GenerationResult",
     "answer_grammar",
+    "example_turns",
     "examples_block",
     "load_prompt",
     "load_reasons",

@@ -237,7 +237,8 @@ def test_success_checks_on_hand_placed_states(env):
 )
 def test_oracle_succeeds(task_id, tmp_path):
     report = run_oracle(task_id, episodes=2, seed=100)
-    assert report.successes == 2, report.failures
+    assert report.successes == 2, (report.failures, report.failed_seeds)
+    assert report.failed_seeds == []
 
 
 def test_long_horizon_oracle_and_video(tmp_path):

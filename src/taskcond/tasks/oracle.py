@@ -30,6 +30,7 @@ class OracleReport:
         steps_per_second: environment (control) steps per wall-clock second over all episodes.
         failures: failure reason → count (``not_succeeded`` when the episode ran to its end without success,
             else the environment's blow-up reason or ``truncated``).
+        failed_seeds: the seed of each failed episode, in order, to replay it (``--episodes 1 --seed S``).
         trajectories: the executed oracle trajectory of each episode, concatenated (demonstrations).
     """
 
@@ -38,6 +39,7 @@ class OracleReport:
     successes: int
     steps_per_second: float
     failures: dict[str, int] = field(default_factory=dict)
+    failed_seeds: list[int] = field(default_factory=list)
     trajectories: list[Trajectory] = field(default_factory=list, repr=False)
 
     @property
@@ -95,6 +97,7 @@ def run_oracle(
     """
     env = make(task_id)
     failures: Counter[str] = Counter()
+    failed_seeds: list[int] = []
     successes = total_steps = 0
     trajectories = []
     start = time.perf_counter()
@@ -110,13 +113,20 @@ def run_oracle(
             successes += ok
             if reason is not None:
                 failures[reason] += 1
+                failed_seeds.append(seed + k)
             if keep_trajectories:
                 trajectories.append(traj)
     finally:
         env.close()
     elapsed = time.perf_counter() - start
     return OracleReport(
-        task_id, episodes, successes, total_steps / max(elapsed, 1e-9), dict(failures), trajectories
+        task_id,
+        episodes,
+        successes,
+        total_steps / max(elapsed, 1e-9),
+        dict(failures),
+        failed_seeds,
+        trajectories,
     )
 
 
