@@ -50,7 +50,7 @@ class Replay:
 
 
 def test_prompt_has_the_four_parts_and_letters_only():
-    gen = ConditionGenerator(Replay([]))
+    gen = ConditionGenerator(Replay([]), prompt_version="v1")
     task = parse_task("move coffee mug into top drawer")
     prompt = gen.prompt("spatial", task)
     assert prompt.startswith("Imagine you are a spatial relation & collision judgment machine.")
@@ -65,7 +65,7 @@ def test_prompt_has_the_four_parts_and_letters_only():
 
 
 def test_leaving_a_primitive_out_removes_its_examples_and_uses_chain_of_thought():
-    gen = ConditionGenerator(Replay([]))
+    gen = ConditionGenerator(Replay([]), prompt_version="v1")
     task = parse_task("move bottle into box")
     prompt = gen.prompt("spatial", task, exclude=["move_into"])
     assert prompt.count("Task name: move A into B") == 1  # only the question
@@ -223,7 +223,7 @@ def test_similar_order_puts_the_most_alike_examples_next_to_the_question():
 
 def test_prompt_versions_are_selectable_and_v2_keeps_the_papers_parts():
     task = parse_task("open top drawer")
-    v1 = ConditionGenerator(Replay([])).prompt("state", task, exclude=["open"])
+    v1 = ConditionGenerator(Replay([]), prompt_version="v1").prompt("state", task, exclude=["open"])
     v2 = ConditionGenerator(Replay([]), prompt_version="v2").prompt("state", task, exclude=["open"])
     assert v1 != v2
     for prompt in (v1, v2):
@@ -243,7 +243,7 @@ def test_prompt_version_v3_asks_left_out_primitives_like_seen_ones():
         loo = gen.prompt(chat, task, exclude=["move_into"])
         assert "First, decide which objects are relevant" not in loo
         assert loo.count("Task name: move A into B") == 1
-        assert loo == ConditionGenerator(Replay([])).prompt(chat, task).replace(
+        assert loo == ConditionGenerator(Replay([]), prompt_version="v1").prompt(chat, task).replace(
             letter_example_text(chat, "move_into") + "\n\n", ""
         )
 
@@ -265,7 +265,8 @@ def test_prompt_version_v4_shows_worked_reasoning_of_the_shown_examples_only():
     for chat in ("spatial", "state"):
         reasons = load_reasons(chat, "v4")
         assert reasons is not None and len(reasons) == len(PRIMITIVES)
-        assert gen.prompt(chat, task) == ConditionGenerator(Replay([])).prompt(chat, task)  # generation: v1
+        v1 = ConditionGenerator(Replay([]), prompt_version="v1")
+        assert gen.prompt(chat, task) == v1.prompt(chat, task)  # generation: v1's
         loo = gen.prompt(chat, task, exclude=["open"])
         assert loo.count("Reasoning: ") == len(PRIMITIVES) - 1
         assert f"Task name: close A\nReasoning: {reasons['close A']}\nRelevant objects: A, gripper" in loo

@@ -51,7 +51,8 @@ PromptVersionOption = Annotated[
     str,
     typer.Option(
         "--prompt-version",
-        help="Prompt set: v4 (default: v1 whose chain-of-thought prompt shows each example with a one-line "
+        help="Prompt set: v5 (default: the examples of generation as earlier turns of the chat, and v4's "
+        "chain-of-thought prompt), v4 (v1 whose chain-of-thought prompt shows each example with a one-line "
         "worked reasoning), v1 (the paper's Listings 2-4), v2 (v1 with the definitions of pre/post-"
         "conditions and an analogy step in the chain-of-thought prompt), v3 (no chain-of-thought text).",
     ),

@@ -7,9 +7,11 @@ merged into one :class:`~taskcond.conditions.TaskCondition`.
 
 *Generation* shows the LLM an example of every primitive. *Generalization* leaves out the examples of
 the task's own primitive (``exclude``, the paper's Table II protocol) and uses the chain-of-thought prompt
-of Listing 4; in prompt version v4 (the default) each example shown there carries a one-line worked
-reasoning (few-shot chain of thought, Wei et al. 2022), so the model reasons about the new primitive in
-the same way before it answers. A reason speaks of its own example only and leaves with it.
+of Listing 4. In prompt version v5 (the default), generation shows the examples as the chat's earlier
+turns (the task name asked, its condition answered) with the question as the last turn, and in the
+chain-of-thought prompt (v4's) each example carries a one-line worked reasoning (few-shot chain of
+thought, Wei et al. 2022), so the model reasons about the new primitive in the same way before it answers.
+A reason speaks of its own example only and leaves with it.
 
 Beyond the paper, the answer's form is guaranteed: a GBNF grammar constrains decoding where the backend
 supports it, and every answer passes a validator that checks the vocabulary, the task's objects and that
@@ -47,7 +49,7 @@ from taskcond.primitives import LETTERS, PRIMITIVES, ParsedTask, Primitive, get_
 
 Chat = Literal["spatial", "state"]
 CHATS: tuple[Chat, ...] = ("spatial", "state")
-PROMPT_VERSION = "v4"
+PROMPT_VERSION = "v5"
 ExampleOrder = Literal["registry", "similar"]
 GrammarUse = Literal["always", "fallback", "never"]
 REASONING = "Reasoning:"
