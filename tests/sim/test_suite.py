@@ -249,3 +249,24 @@ def test_long_horizon_oracle_and_video(tmp_path):
     traj = report.trajectories[0]
     assert traj.positions.shape == (len(traj), 3) and traj.orientations.shape == (len(traj), 4)
     assert set(np.unique(traj.gripper)) == {0.0, 1.0}
+
+
+def test_a_resized_vessel_is_held_by_its_own_wall():
+    """Novel objects are a change of parameters: a wider, taller bowl is grasped at its own wall."""
+    from dataclasses import replace
+
+    from taskcond.sim.scene import SceneConfig
+    from taskcond.tasks.skills import grasp_of
+
+    config = SceneConfig()
+    spec, placement = config.free_objects["bowl"]
+    bigger = replace(spec, outer_radius=0.042, height=0.06)
+    config = replace(config, free_objects={**config.free_objects, "bowl": (bigger, placement)})
+    env = make("grasp-bowl", config=config)
+    try:
+        grasp = grasp_of(env.scene, "bowl")
+        np.testing.assert_allclose([grasp.along, grasp.height, grasp.width], [-0.039, 0.05, 0.006])
+        ok, reason, _, _ = run_episode(env, seed=3)
+        assert ok, reason
+    finally:
+        env.close()

@@ -20,7 +20,7 @@ OBJECTS = ("bottle", "bowl", "mug", "toothpaste", "spatula")
 
 class Grasp(PrimitiveTask):
     """``yaw_offset`` (rad): the oracle's grasp yaw relative to the object, replacing the object's default
-    (:data:`taskcond.tasks.skills.GRASPS`)."""
+    (:func:`taskcond.tasks.skills.grasp_of`)."""
 
     primitive_id = "grasp"
     max_steps = 300

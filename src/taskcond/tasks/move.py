@@ -14,7 +14,7 @@ import pybullet as p
 from taskcond.conditions import GripperState, Predicate
 from taskcond.tasks.base import PrimitiveTask
 from taskcond.tasks.env import KitchenEnv
-from taskcond.tasks.skills import CLOSED, GRASPS, current
+from taskcond.tasks.skills import CLOSED, current, grasp_of
 from taskcond.tasks.trajectory import Waypoint
 
 OBJECTS = ("bottle", "bowl", "mug")
@@ -53,7 +53,7 @@ class Move(PrimitiveTask):
     max_steps = 200
 
     def setup(self, env: KitchenEnv, rng: np.random.Generator) -> None:
-        env.hold(self.objects[0], 0.08, GRASPS[self.objects[0]])
+        env.hold(self.objects[0], 0.08, grasp_of(env.scene, self.objects[0]))
         env.target = free_goal(env, self.objects[0], rng)
 
     def post_conditions(self) -> tuple[Predicate, ...]:

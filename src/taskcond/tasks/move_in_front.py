@@ -11,7 +11,7 @@ import numpy as np
 from taskcond.conditions import Predicate, Relation, SpatialRelation
 from taskcond.tasks.base import PrimitiveTask
 from taskcond.tasks.env import KitchenEnv
-from taskcond.tasks.skills import GRASPS, bottom_to_com, carry
+from taskcond.tasks.skills import bottom_to_com, carry, grasp_of
 from taskcond.tasks.trajectory import Waypoint
 
 PAIRS = (("bottle", "microwave"), ("mug", "box"), ("bowl", "cabinet"))
@@ -24,7 +24,7 @@ class MoveInFront(PrimitiveTask):
     max_steps = 300
 
     def setup(self, env: KitchenEnv, rng: np.random.Generator) -> None:
-        env.hold(self.objects[0], 0.03, GRASPS[self.objects[0]])
+        env.hold(self.objects[0], 0.03, grasp_of(env.scene, self.objects[0]))
 
     def post_conditions(self) -> tuple[Predicate, ...]:
         return (SpatialRelation(self.objects[0], Relation.IN_FRONT_OF, self.objects[1]),)

@@ -16,7 +16,7 @@ from taskcond.conditions import Predicate, Relation, SpatialRelation
 from taskcond.sim.franka import top_down
 from taskcond.tasks.base import PrimitiveTask
 from taskcond.tasks.env import KitchenEnv
-from taskcond.tasks.skills import GRASPS, bottom_to_com, carry, current, nearest_grip
+from taskcond.tasks.skills import bottom_to_com, carry, current, grasp_of, nearest_grip
 from taskcond.tasks.trajectory import Waypoint
 
 PAIRS = (
@@ -57,7 +57,7 @@ class MoveInto(PrimitiveTask):
         b = self.objects[1]
         if b in env.scene.joints:
             env.scene.set_joint(b, 1.0)
-        grasp = GRASPS[self.objects[0]]
+        grasp = grasp_of(env.scene, self.objects[0])
         if b.endswith("drawer"):
             grasp = replace(grasp, yaw_offset=BESIDE_DRAWER_YAW)
         env.hold(self.objects[0], 0.05, grasp)

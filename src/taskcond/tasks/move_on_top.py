@@ -11,7 +11,7 @@ import numpy as np
 from taskcond.conditions import Predicate, Relation, SpatialRelation
 from taskcond.tasks.base import PrimitiveTask
 from taskcond.tasks.env import KitchenEnv
-from taskcond.tasks.skills import GRASPS, bottom_to_com, carry
+from taskcond.tasks.skills import bottom_to_com, carry, grasp_of
 from taskcond.tasks.trajectory import Waypoint
 
 PAIRS = (("bottle", "box"), ("bowl", "box"), ("toothpaste", "box"), ("spatula", "box"), ("mug", "table"))
@@ -25,7 +25,7 @@ class MoveOnTop(PrimitiveTask):
     max_steps = 300
 
     def setup(self, env: KitchenEnv, rng: np.random.Generator) -> None:
-        env.hold(self.objects[0], 0.05, GRASPS[self.objects[0]])
+        env.hold(self.objects[0], 0.05, grasp_of(env.scene, self.objects[0]))
 
     def post_conditions(self) -> tuple[Predicate, ...]:
         return (SpatialRelation(self.objects[0], Relation.ABOVE, self.objects[1]),)

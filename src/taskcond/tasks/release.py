@@ -11,7 +11,7 @@ import numpy as np
 from taskcond.conditions import GripperState, Predicate
 from taskcond.tasks.base import PrimitiveTask
 from taskcond.tasks.env import KitchenEnv
-from taskcond.tasks.skills import GRASPS, release
+from taskcond.tasks.skills import grasp_of, release
 from taskcond.tasks.trajectory import Waypoint
 
 OBJECTS = ("bottle", "bowl", "mug", "toothpaste", "spatula")
@@ -22,7 +22,7 @@ class Release(PrimitiveTask):
     max_steps = 120
 
     def setup(self, env: KitchenEnv, rng: np.random.Generator) -> None:
-        env.hold(self.objects[0], 0.03, GRASPS[self.objects[0]])
+        env.hold(self.objects[0], 0.03, grasp_of(env.scene, self.objects[0]))
 
     def post_conditions(self) -> tuple[Predicate, ...]:
         return (GripperState(None),)

@@ -15,7 +15,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from taskcond.sim.assets import BoxSpec, CabinetSpec, MicrowaveSpec
+from taskcond.sim.assets import BoxSpec, CabinetSpec, MicrowaveSpec, VesselSpec
 from taskcond.sim.franka import forward, top_down
 from taskcond.sim.scene import KitchenScene
 from taskcond.tasks.trajectory import Trajectory, Waypoint
@@ -53,13 +53,12 @@ class GraspPose:
         return pos + offset, np.array(top_down(grip_yaw))
 
 
+VESSEL_GRIP_DEPTH = 0.01
+"""How far (m) below a vessel's rim the end-effector point is when it holds the wall."""
+
 GRASPS: dict[str, GraspPose] = {
     # the upper body, palm (3.5 cm above the end-effector point) clear of the neck's top at 0.13 m
     "bottle": GraspPose(0.10, 0.0, 0.06),
-    # vessels by the wall nearest the robot (world -x side), one finger inside, one outside: an open hand
-    # (8 cm) clears a 6 mm wall by 3.7 cm on each side, around the whole bowl by 6 mm only
-    "bowl": GraspPose(0.035, math.pi / 2, 0.006, along=-0.031, round=True),
-    "mug": GraspPose(0.08, math.pi / 2, 0.006, along=-0.037, round=True),
     # near the top, so that with the tube standing in the mug the fingertips open above the mug's rim
     "toothpaste": GraspPose(0.085, math.pi / 2, 0.022),
     # on the handle 3.5 cm towards the blade: near the centre of mass (2.3 cm), and far enough from the
@@ -68,7 +67,28 @@ GRASPS: dict[str, GraspPose] = {
     "can": GraspPose(0.06, 0.0, 0.06),
     "cube": GraspPose(0.025, 0.0, 0.04),
 }
-"""Grasp of each free object of the default scene."""
+"""Grasp of each free object of the default scene that is not a vessel (see :func:`grasp_of`)."""
+
+
+def vessel_grasp(spec: VesselSpec) -> GraspPose:
+    """Grasp of a vessel (bowl, mug) by the middle of its wall on the world -x side, nearest the robot,
+    :data:`VESSEL_GRIP_DEPTH` below the rim: one finger inside, one outside (an open hand, 8 cm, clears a
+    6 mm wall by 3.7 cm on each side, around a whole 6.8 cm bowl by 6 mm only). Lengths are rounded to the
+    micrometre, the resolution the hand-written grasps had."""
+    return GraspPose(
+        round(spec.height - VESSEL_GRIP_DEPTH, 6),
+        math.pi / 2,
+        spec.wall,
+        along=-round(spec.outer_radius - spec.wall / 2, 6),
+        round=True,
+    )
+
+
+def grasp_of(scene: KitchenScene, name: str) -> GraspPose:
+    """The grasp of free object ``name`` in ``scene``: from its own spec for a vessel (so a resized bowl
+    is held by its own wall), else :data:`GRASPS`."""
+    spec = scene.config.free_objects[name][0]
+    return vessel_grasp(spec) if isinstance(spec, VesselSpec) else GRASPS[name]
 
 
 def plan(env: KitchenEnv, waypoints: list[Waypoint]) -> Trajectory:
@@ -127,7 +147,7 @@ def downward(orientation: np.ndarray) -> np.ndarray | None:
 def pick(env: KitchenEnv, name: str, lift: float = 0.12, yaw_offset: float | None = None) -> list[Waypoint]:
     """Open, come from above, close on ``name`` and lift it by ``lift`` m; ``yaw_offset`` (rad) replaces
     the grasp's own (round objects can be taken at any yaw)."""
-    grasp = GRASPS[name]
+    grasp = grasp_of(env.scene, name)
     if yaw_offset is not None:
         grasp = replace(grasp, yaw_offset=yaw_offset)
     ee, orn = grasp.pose(env.scene, name)

@@ -14,7 +14,7 @@ from scipy.spatial.transform import Rotation
 from taskcond.conditions import GripperState, Predicate
 from taskcond.tasks.base import PrimitiveTask
 from taskcond.tasks.env import KitchenEnv
-from taskcond.tasks.skills import CLOSED, GRASPS, current
+from taskcond.tasks.skills import CLOSED, current, grasp_of
 from taskcond.tasks.trajectory import Waypoint
 
 OBJECTS = ("bottle", "mug")
@@ -36,7 +36,7 @@ class Tilt(PrimitiveTask):
     max_steps = 150
 
     def setup(self, env: KitchenEnv, rng: np.random.Generator) -> None:
-        env.hold(self.objects[0], 0.10, GRASPS[self.objects[0]])
+        env.hold(self.objects[0], 0.10, grasp_of(env.scene, self.objects[0]))
 
     def post_conditions(self) -> tuple[Predicate, ...]:
         return (GripperState(self.objects[0]),)
