@@ -91,7 +91,9 @@ def main() -> None:
     ap.add_argument("--repeats", type=int, default=3, help="cached-lookup repetitions per task")
     ap.add_argument("--accuracy", action="store_true", help="measure accuracy (Table II) instead of speed")
     ap.add_argument("--prompt-version", default=PROMPT_VERSION, help="prompt directory (accuracy)")
-    ap.add_argument("--example-order", default=ConditionGenerator.example_order, help="registry or similar")
+    ap.add_argument(
+        "--example-order", default=ConditionGenerator.example_order, help="auto, registry or similar"
+    )
     ap.add_argument("--samples", type=int, default=1, help="self-consistency samples per chat (accuracy)")
     ap.add_argument("--trials", type=int, default=3, help="trials per primitive and mode (accuracy)")
     ap.add_argument(

@@ -288,7 +288,14 @@ def test_prompt_version_v5_shows_generation_examples_as_earlier_turns_of_the_cha
         assert "Task name" not in messages[0].content
         assert messages[-1].content == "Task name: move A into B"
         shown = [f"{q.content}\n{a.content}" for q, a in zip(messages[1:-1:2], messages[2:-1:2], strict=True)]
-        assert shown == examples_block(chat, order_seed=2).split("\n\n")
+        nearest = examples_block(chat, order_seed=2, nearest=PRIMITIVES["move_into"]).split("\n\n")
+        assert shown == nearest  # the default order of the turns layout: most similar last
+        assert shown[-1].startswith("Task name: move A into B\n")  # its own example, the turn before
+        registry = ConditionGenerator(Replay([]), prompt_version="v5", example_order="registry")
+        turns = registry.messages(chat, task, order_seed=2)[1:-1]
+        assert [m.content for m in turns[::2]] == [
+            b.split("\n", 1)[0] for b in examples_block(chat, order_seed=2).split("\n\n")
+        ]
         assert not any("coffee mug" in m.content or "drawer" in m.content for m in messages)
         v4 = ConditionGenerator(Replay([]), prompt_version="v4")
         loo = gen.messages(chat, task, exclude=["move_into"])

@@ -50,7 +50,7 @@ from taskcond.primitives import LETTERS, PRIMITIVES, ParsedTask, Primitive, get_
 Chat = Literal["spatial", "state"]
 CHATS: tuple[Chat, ...] = ("spatial", "state")
 PROMPT_VERSION = "v5"
-ExampleOrder = Literal["registry", "similar"]
+ExampleOrder = Literal["auto", "registry", "similar"]
 GrammarUse = Literal["always", "fallback", "never"]
 REASONING = "Reasoning:"
 """The line of a worked example (and of an answer to it) that gives the reasoning before the answer."""
@@ -332,9 +332,12 @@ class ConditionGenerator:
             grammar sampling costs ~80 ms per token on 2 cores, four times the free decoding; ``"always"``
             constrains every request; ``"never"`` relies on the validator alone.
         prompt_version: directory of the prompt files.
-        example_order: ``"registry"`` (the registry's order, shuffled by the trial's ``order_seed``) or
+        example_order: ``"registry"`` (the registry's order, shuffled by the trial's ``order_seed``),
             ``"similar"`` (then the examples most similar to the task's primitive last, next to the
-            question; see :func:`similarity`).
+            question; see :func:`similarity`), or ``"auto"`` (default): ``"similar"`` in the few-shot
+            turns layout, so that a seen primitive's own example is the turn right before the question
+            (in v5 it mended the generation answers the registry order got wrong), ``"registry"`` in the
+            one-message layout (where ``"similar"`` measured worse).
     """
 
     backend: ChatBackend
@@ -343,7 +346,7 @@ class ConditionGenerator:
     temperature: float = 0.7
     grammar: GrammarUse = "fallback"
     prompt_version: str = PROMPT_VERSION
-    example_order: ExampleOrder = "registry"
+    example_order: ExampleOrder = "auto"
 
     def messages(
         self, chat: Chat, task: ParsedTask, exclude: Iterable[str] = (), order_seed: int | None = None
@@ -355,14 +358,19 @@ class ConditionGenerator:
         A prompt file with ``$examples`` is one user message holding the examples and the question (the
         paper's layout). A prompt file without it is the system message of a few-shot chat (prompt v5's
         generation): each example is a user turn (its task name) and an assistant turn (its answer), and
-        the question is the last user turn, so the model answers as it has answered before.
+        the question is the last user turn, so the model answers as it has answered before. The examples'
+        order follows :attr:`example_order`.
         """
         excluded = set(exclude)
         cot = task.primitive.id in excluded
         template = load_prompt(f"{chat}_cot" if cot else chat, self.prompt_version)
-        nearest = task.primitive if self.example_order == "similar" else None
+        one_message = "$examples" in template.template
+        order = (
+            self.example_order if self.example_order != "auto" else "registry" if one_message else "similar"
+        )
+        nearest = task.primitive if order == "similar" else None
         reasons = load_reasons(chat, self.prompt_version) if cot else None
-        if "$examples" in template.template:
+        if one_message:
             text = template.substitute(
                 examples=examples_block(chat, excluded, order_seed, nearest, reasons), task=task.letter_name
             )
