@@ -325,3 +325,21 @@ def test_reasoning_before_the_answer_is_not_parsed():
         parse_answer("Reasoning: none of it fits.\nI cannot answer.", "state", task, reasoning=True)
     grammar = answer_grammar("state", task, reasoning=True)
     assert grammar.startswith('root ::= "Reasoning: " [^\\n]+ "\\n" "Relevant objects: "')
+
+
+def test_evaluation_scores_every_field_and_counts_invalid_answers_as_failures():
+    """The Table II protocol on a scripted model: right in generation, no valid answer when left out."""
+    from taskcond.evaluation import evaluate_conditions
+
+    head = "Relevant objects: A, gripper\nPre-conditions:\n"
+    spatial = head + "  none\nPost-conditions:\n  none\nCollisions: gripper and A"
+    state = head + "  gripper not grasping\nPost-conditions:\n  gripper grasping A"
+    backend = Replay([spatial, state, "nonsense", "nonsense", "nonsense"])
+    result = evaluate_conditions(ConditionGenerator(backend), trials=1, primitives=["grasp"])
+    assert (result.generation["grasp"].correct, result.generalization["grasp"].correct) == (1, 0)
+    assert dict(result.generalization["grasp"].failures) == {"no valid answer": 1}
+    assert "| Grasp | 100% (1/1) | 0% (0/1) |" in result.table()
+    only = evaluate_conditions(
+        ConditionGenerator(Replay([spatial, state])), 1, ["grasp"], modes=["generation"]
+    )
+    assert "| **all** | 100% (1/1) | not measured |" in only.table()

@@ -108,26 +108,20 @@ class ConditionEvaluation:
 
     def table(self) -> str:
         """A markdown table laid out like the paper's Table II."""
+
+        def cell(correct: int, trials: int) -> str:
+            return f"{correct / trials:.0%} ({correct}/{trials})" if trials else "not measured"
+
         rows = ["| PT Name | Generation (LLM) | Generalization (LLM) |", "|---|---|---|"]
         for pid, prim in PRIMITIVES.items():
             if pid in self.generation:
                 g, z = self.generation[pid], self.generalization[pid]
-                rows.append(
-                    f"| {prim.title} | {g.rate:.0%} ({g.correct}/{g.trials}) "
-                    f"| {z.rate:.0%} ({z.correct}/{z.trials}) |"
-                )
-        g_all = (
-            sum(s.correct for s in self.generation.values()),
-            sum(s.trials for s in self.generation.values()),
-        )
-        z_all = (
-            sum(s.correct for s in self.generalization.values()),
-            sum(s.trials for s in self.generalization.values()),
-        )
-        rows.append(
-            f"| **all** | {g_all[0] / max(g_all[1], 1):.0%} ({g_all[0]}/{g_all[1]}) "
-            f"| {z_all[0] / max(z_all[1], 1):.0%} ({z_all[0]}/{z_all[1]}) |"
-        )
+                rows.append(f"| {prim.title} | {cell(g.correct, g.trials)} | {cell(z.correct, z.trials)} |")
+        totals = [
+            cell(sum(s.correct for s in d.values()), sum(s.trials for s in d.values()))
+            for d in (self.generation, self.generalization)
+        ]
+        rows.append(f"| **all** | {totals[0]} | {totals[1]} |")
         return "\n".join(rows)
 
 
