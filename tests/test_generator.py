@@ -283,19 +283,23 @@ def test_prompt_version_v5_shows_generation_examples_as_earlier_turns_of_the_cha
     gen = ConditionGenerator(Replay([]), prompt_version="v5")
     for chat in ("spatial", "state"):
         messages = gen.messages(chat, task, order_seed=2)
-        assert [m.role for m in messages] == ["system", *["user", "assistant"] * len(PRIMITIVES), "user"]
+        assert [m.role for m in messages] == [
+            "system",
+            *["user", "assistant"] * (len(PRIMITIVES) + 1),
+            "user",
+        ]
         assert "Remember to strictly follow the examples' format." in messages[0].content
         assert "Task name" not in messages[0].content
         assert messages[-1].content == "Task name: move A into B"
         shown = [f"{q.content}\n{a.content}" for q, a in zip(messages[1:-1:2], messages[2:-1:2], strict=True)]
+        registry = examples_block(chat, order_seed=2).split("\n\n")
+        own = next(b for b in registry if b.startswith("Task name: move A into B\n"))
+        assert shown == [*registry, own]  # the default order of the turns layout: all, then its own again
+        assert examples_block(chat, order_seed=3) != examples_block(chat, order_seed=2)
+        similar = ConditionGenerator(Replay([]), prompt_version="v5", example_order="similar")
+        turns = similar.messages(chat, task, order_seed=2)[1:-1]
         nearest = examples_block(chat, order_seed=2, nearest=PRIMITIVES["move_into"]).split("\n\n")
-        assert shown == nearest  # the default order of the turns layout: most similar last
-        assert shown[-1].startswith("Task name: move A into B\n")  # its own example, the turn before
-        registry = ConditionGenerator(Replay([]), prompt_version="v5", example_order="registry")
-        turns = registry.messages(chat, task, order_seed=2)[1:-1]
-        assert [m.content for m in turns[::2]] == [
-            b.split("\n", 1)[0] for b in examples_block(chat, order_seed=2).split("\n\n")
-        ]
+        assert [f"{q.content}\n{a.content}" for q, a in zip(turns[::2], turns[1::2], strict=True)] == nearest
         assert not any("coffee mug" in m.content or "drawer" in m.content for m in messages)
         v4 = ConditionGenerator(Replay([]), prompt_version="v4")
         loo = gen.messages(chat, task, exclude=["move_into"])

@@ -50,7 +50,7 @@ from taskcond.primitives import LETTERS, PRIMITIVES, ParsedTask, Primitive, get_
 Chat = Literal["spatial", "state"]
 CHATS: tuple[Chat, ...] = ("spatial", "state")
 PROMPT_VERSION = "v5"
-ExampleOrder = Literal["auto", "registry", "similar"]
+ExampleOrder = Literal["auto", "registry", "similar", "recall"]
 GrammarUse = Literal["always", "fallback", "never"]
 REASONING = "Reasoning:"
 """The line of a worked example (and of an answer to it) that gives the reasoning before the answer."""
@@ -334,10 +334,12 @@ class ConditionGenerator:
         prompt_version: directory of the prompt files.
         example_order: ``"registry"`` (the registry's order, shuffled by the trial's ``order_seed``),
             ``"similar"`` (then the examples most similar to the task's primitive last, next to the
-            question; see :func:`similarity`), or ``"auto"`` (default): ``"similar"`` in the few-shot
-            turns layout, so that a seen primitive's own example is the turn right before the question
-            (in v5 it mended the generation answers the registry order got wrong), ``"registry"`` in the
-            one-message layout (where ``"similar"`` measured worse).
+            question; see :func:`similarity`), ``"recall"`` (the registry's order, then the task's own
+            example once more, right before the question, if it is shown: every prompt shares the prefix
+            of all examples, which llama.cpp reuses), or ``"auto"`` (default): ``"recall"`` in the
+            few-shot turns layout (v5's generation: the own example next to the question mended the
+            answers the registry order got wrong), ``"registry"`` in the one-message layout (where the
+            similar order measured worse).
     """
 
     backend: ChatBackend
@@ -366,7 +368,7 @@ class ConditionGenerator:
         template = load_prompt(f"{chat}_cot" if cot else chat, self.prompt_version)
         one_message = "$examples" in template.template
         order = (
-            self.example_order if self.example_order != "auto" else "registry" if one_message else "similar"
+            self.example_order if self.example_order != "auto" else "registry" if one_message else "recall"
         )
         nearest = task.primitive if order == "similar" else None
         reasons = load_reasons(chat, self.prompt_version) if cot else None
@@ -375,8 +377,12 @@ class ConditionGenerator:
                 examples=examples_block(chat, excluded, order_seed, nearest, reasons), task=task.letter_name
             )
             return (ChatMessage("user", text),)
+        examples = example_turns(chat, excluded, order_seed, nearest, reasons)
+        if order == "recall":
+            own = f"Task name: {letter_example(task.primitive.id).task_name}"
+            examples += [turn for turn in examples if turn[0] == own]
         turns = [ChatMessage("system", template.template.strip())]
-        for name, answer in example_turns(chat, excluded, order_seed, nearest, reasons):
+        for name, answer in examples:
             turns += [ChatMessage("user", name), ChatMessage("assistant", answer)]
         return (*turns, ChatMessage("user", f"Task name: {task.letter_name}"))
 
