@@ -305,6 +305,8 @@ def test_prompt_version_v5_shows_generation_examples_as_earlier_turns_of_the_cha
         loo = gen.messages(chat, task, exclude=["move_into"])
         assert loo == v4.messages(chat, task, exclude=["move_into"])
     assert "gripper grasping/not grasping" in gen.messages("state", task)[0].content
+    one_message = ConditionGenerator(Replay([]), prompt_version="v1", example_order="recall")
+    assert one_message.prompt("state", task).count("Task name: move A into B") == 3  # twice, then asked
 
 
 def test_v5_turns_reach_the_backend_and_their_answers_are_validated():

@@ -141,9 +141,12 @@ def examples_block(
     nearest: Primitive | None = None,
     reasons: dict[str, str] | None = None,
 ) -> str:
-    """The examples part of a one-message prompt: the :func:`example_turns` as text, a blank line
-    between two examples."""
-    turns = example_turns(chat, exclude, order_seed, nearest, reasons)
+    """The examples part of a one-message prompt: the :func:`example_turns` as text."""
+    return _as_text(example_turns(chat, exclude, order_seed, nearest, reasons))
+
+
+def _as_text(turns: list[tuple[str, str]]) -> str:
+    """Example turns as one text: each task name line above its answer, a blank line between two."""
     return "\n\n".join(f"{name}\n{answer}" for name, answer in turns)
 
 
@@ -372,15 +375,13 @@ class ConditionGenerator:
         )
         nearest = task.primitive if order == "similar" else None
         reasons = load_reasons(chat, self.prompt_version) if cot else None
-        if one_message:
-            text = template.substitute(
-                examples=examples_block(chat, excluded, order_seed, nearest, reasons), task=task.letter_name
-            )
-            return (ChatMessage("user", text),)
         examples = example_turns(chat, excluded, order_seed, nearest, reasons)
         if order == "recall":
             own = f"Task name: {letter_example(task.primitive.id).task_name}"
             examples += [turn for turn in examples if turn[0] == own]
+        if one_message:
+            text = template.substitute(examples=_as_text(examples), task=task.letter_name)
+            return (ChatMessage("user", text),)
         turns = [ChatMessage("system", template.template.strip())]
         for name, answer in examples:
             turns += [ChatMessage("user", name), ChatMessage("assistant", answer)]
