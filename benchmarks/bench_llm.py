@@ -19,10 +19,11 @@ import statistics
 import tempfile
 import time
 from pathlib import Path
+from typing import get_args
 
 from taskcond.evaluation import evaluate_conditions
 from taskcond.examples import reference_condition
-from taskcond.generator import PROMPT_VERSION, ConditionGenerator
+from taskcond.generator import PROMPT_VERSION, ConditionGenerator, ExampleOrder
 from taskcond.llm.cache import CachedBackend
 from taskcond.llm.embedded import EmbeddedBackend
 from taskcond.llm.models import DEFAULT_EMBEDDED_MODEL, get_embedded_model, model_path
@@ -92,7 +93,10 @@ def main() -> None:
     ap.add_argument("--accuracy", action="store_true", help="measure accuracy (Table II) instead of speed")
     ap.add_argument("--prompt-version", default=PROMPT_VERSION, help="prompt directory (accuracy)")
     ap.add_argument(
-        "--example-order", default=ConditionGenerator.example_order, help="auto, registry or similar"
+        "--example-order",
+        default=ConditionGenerator.example_order,
+        choices=get_args(ExampleOrder),
+        help="order of the examples in the prompts (see ConditionGenerator.example_order)",
     )
     ap.add_argument("--samples", type=int, default=1, help="self-consistency samples per chat (accuracy)")
     ap.add_argument("--trials", type=int, default=3, help="trials per primitive and mode (accuracy)")
