@@ -293,3 +293,20 @@ def test_a_bowl_is_set_down_in_a_drawer_before_it_is_let_go():
         assert env.task.success(env)
     finally:
         env.close()
+
+
+@pytest.mark.parametrize("segments", [12, 24, 48])
+def test_a_vessel_of_any_roundness_loads(segments):
+    """A rounder bowl is a change of parameters too: its URDF (written one element per line) loads and
+    has one wall box per segment plus the base."""
+    import pybullet as p
+
+    from taskcond.sim.assets import VesselSpec, urdf_text, write_urdf
+
+    path = write_urdf("bowl", urdf_text("bowl", VesselSpec(segments=segments).links()))
+    client = p.connect(p.DIRECT)
+    try:
+        body = p.loadURDF(str(path), physicsClientId=client)
+        assert len(p.getCollisionShapeData(body, -1, physicsClientId=client)) == segments + 1
+    finally:
+        p.disconnect(client)

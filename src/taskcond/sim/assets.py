@@ -142,7 +142,7 @@ def _link_xml(link: Link) -> str:
         )
         parts.append(f"<collision>{origin}<geometry>{_geometry(s)}</geometry></collision>")
     parts.append("</link>")
-    return "".join(parts)
+    return "\n".join(parts)
 
 
 def _joint_xml(j: Joint) -> str:
@@ -158,9 +158,11 @@ def _joint_xml(j: Joint) -> str:
 
 
 def urdf_text(name: str, links: list[Link], joints: list[Joint] | None = None) -> str:
-    """URDF XML of a robot made of ``links`` (the first is the base) connected by ``joints``."""
-    body = "".join(_link_xml(link) for link in links) + "".join(_joint_xml(j) for j in joints or [])
-    return f'<?xml version="1.0"?><robot name="{name}">{body}</robot>'
+    """URDF XML of a robot made of ``links`` (the first is the base) connected by ``joints``, one element
+    per line: a 24-segment bowl written on one line (8,827 characters) did not load in PyBullet
+    (``XML_ERROR_PARSING_ATTRIBUTE``), the same text with one element per line did."""
+    body = "\n".join([*(_link_xml(link) for link in links), *(_joint_xml(j) for j in joints or [])])
+    return f'<?xml version="1.0"?>\n<robot name="{name}">\n{body}\n</robot>\n'
 
 
 def cache_dir() -> Path:
