@@ -272,24 +272,22 @@ def test_a_resized_vessel_is_held_by_its_own_wall():
         env.close()
 
 
-def test_a_bowl_is_set_down_in_a_drawer_before_it_is_let_go():
-    """LHT2* seed 54 failed when the bowl was let go of 2 cm above the top drawer's floor: it turned about
-    the pads as it dropped, jammed them and was lifted out again. Now it is let go of just above the floor
-    and stays in the closed drawer."""
+def test_the_hand_lets_go_of_a_bowl_in_a_drawer():
+    """LHT2* seed 54 failed with a 12-segment bowl wall: the bowl turned in the opening hand, the corners
+    between two wall boxes wedged the pads shut, and the rising hand lifted the bowl out of the drawer.
+    With a rounder wall the fingers open fully and the bowl stays in the closed drawer."""
     from taskcond.tasks.release import Release
 
     env = make("LHT2*")
     try:
         env.reset(seed=54)
-        inner = env.scene.interior("top drawer")
-        floor = inner.center[2] - inner.half_extents[2]
         for step in env.task.steps:
-            if isinstance(step, Release):
-                assert env.scene.aabb("bowl")[0][2] - floor < 0.012
             for trajectory in step.plans(env):
                 for i in range(len(trajectory)):
                     _, _, terminated, _, info = env.step(trajectory.action(i))
                     assert not terminated, info["failure"]
+            if isinstance(step, Release):
+                assert env.robot.finger_width() > 0.07
         assert env.task.success(env)
     finally:
         env.close()

@@ -28,10 +28,6 @@ PAIRS = (
 )
 FLOOR_GAP = 0.02
 """Height (m) of A's lowest point above B's floor where the oracle stops."""
-DRAWER_FLOOR_GAP = 0.005
-""":data:`FLOOR_GAP` in a drawer. A bowl let go of 2 cm above the top drawer's floor (it hangs up to 1 cm
-lower still) turned about the pads as it dropped, wedged its wall across them and was lifted out again
-by the rising hand (LHT2*, 4 of 100 seeds); set down from 5 mm it drops flat."""
 BESIDE_DRAWER_YAW = math.pi / 2
 """Grasp yaw (rad, relative to A) of the held A when B is a drawer: fingers closing along world x, so that
 the hand's long side (20 cm across the fingers) is not under or against the pulled-out drawer beside A."""
@@ -49,8 +45,7 @@ def into_goal(env: KitchenEnv, a: str, b: str) -> tuple[np.ndarray, float]:
         front, _ = env.scene.pose(b)
         lo, hi = env.scene.aabb(a)
         xy = np.array([front[0] + 0.025 + (hi[0] - lo[0]) / 2, xy[1]])
-    gap = DRAWER_FLOOR_GAP if b.endswith("drawer") else FLOOR_GAP
-    goal = np.array([xy[0], xy[1], floor + gap + bottom_to_com(env, a)])
+    goal = np.array([xy[0], xy[1], floor + FLOOR_GAP + bottom_to_com(env, a)])
     return goal, rim
 
 
