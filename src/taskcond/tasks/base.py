@@ -84,7 +84,8 @@ class Task:
 
     def plans(self, env: KitchenEnv) -> Iterator[Trajectory]:
         """The scripted oracle: end-effector trajectories to execute one after the other, each planned
-        from the state the previous one left (a primitive task yields one)."""
+        from the state the previous one left (a primitive task yields one, or a few when it
+        reacts to what happened, as a release whose fingers stayed jammed)."""
         raise NotImplementedError
 
 

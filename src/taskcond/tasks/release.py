@@ -6,13 +6,15 @@ object resting within 2 cm of the counter.
 
 from __future__ import annotations
 
+from collections.abc import Iterator
+
 import numpy as np
 
 from taskcond.conditions import GripperState, Predicate
 from taskcond.tasks.base import PrimitiveTask
 from taskcond.tasks.env import KitchenEnv
-from taskcond.tasks.skills import grasp_of, release
-from taskcond.tasks.trajectory import Waypoint
+from taskcond.tasks.skills import grasp_of, release_plans
+from taskcond.tasks.trajectory import Trajectory
 
 OBJECTS = ("bottle", "bowl", "mug", "toothpaste", "spatula")
 
@@ -30,5 +32,5 @@ class Release(PrimitiveTask):
     def extra_success(self, env: KitchenEnv) -> bool:
         return bool(env.scene.aabb(self.objects[0])[0][2] <= 0.02)
 
-    def waypoints(self, env: KitchenEnv) -> list[Waypoint]:
-        return release(env)
+    def plans(self, env: KitchenEnv) -> Iterator[Trajectory]:
+        yield from release_plans(env)

@@ -9,6 +9,7 @@ end-effector pose.
 from __future__ import annotations
 
 import math
+from collections.abc import Iterator
 from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING
 
@@ -163,10 +164,27 @@ def pick(env: KitchenEnv, name: str, lift: float = 0.12, yaw_offset: float | Non
     ]
 
 
-def release(env: KitchenEnv, rise: float = 0.10) -> list[Waypoint]:
-    """Open the fingers where the hand is, then move up by ``rise`` m."""
+FREED_WIDTH = 0.05
+"""Opening (m) between the pads after :func:`release` opened them below which the fingers are jammed on the
+object (fully open: 0.08)."""
+REGRIPS = 2
+"""Times :func:`release_plans` grips again and reopens jammed fingers before it rises anyway."""
+
+
+def release_plans(env: KitchenEnv, rise: float = 0.10) -> Iterator[Trajectory]:
+    """Open the fingers where the hand is; while they stay jammed on the object (opening below
+    :data:`FREED_WIDTH`, at most :data:`REGRIPS` times) close them again, which presses the object's wall
+    flat between the pads, and reopen; then move up by ``rise`` m.
+
+    A bowl that turns a few degrees in the opening hand can wedge its wall across the pads (LHT2*: the
+    fingers stuck at 12 mm, and the rising hand lifted the bowl out of the drawer)."""
     pos, orn, _ = current(env)
-    return [Waypoint(pos, orn, OPEN, GRIP_TIME), Waypoint(pos + np.array([0, 0, rise]), orn, OPEN, 0.8)]
+    yield plan(env, [Waypoint(pos, orn, OPEN, GRIP_TIME)])
+    for _ in range(REGRIPS):
+        if env.robot.finger_width() >= FREED_WIDTH:
+            break
+        yield plan(env, [Waypoint(pos, orn, CLOSED, GRIP_TIME), Waypoint(pos, orn, OPEN, GRIP_TIME)])
+    yield plan(env, [Waypoint(pos + np.array([0, 0, rise]), orn, OPEN, 0.8)])
 
 
 def carry(
