@@ -40,8 +40,7 @@ ORACLE_REVISION = 3
 """Revision of the suite's oracles the default skill library is learned from; raised whenever their
 demonstrations change (2: the bowl and the mug held by their wall, the toothpaste near its top; 3: the
 vessels' walls of 24 segments instead of 12, a release that grips again when the fingers stay jammed),
-so
-that a library learned from older demonstrations is not picked up by default."""
+so that a library learned from older demonstrations is not picked up by default."""
 
 
 def default_library_dir() -> Path:
