@@ -165,8 +165,8 @@ def pick(env: KitchenEnv, name: str, lift: float = 0.12, yaw_offset: float | Non
 
 
 FREED_WIDTH = 0.05
-"""Opening (m) between the pads after :func:`release` opened them below which the fingers are jammed on the
-object (fully open: 0.08)."""
+"""Opening (m) between the pads, after :func:`release_plans` opened them, below which the fingers are jammed
+on the object (fully open: 0.08)."""
 REGRIPS = 2
 """Times :func:`release_plans` grips again and reopens jammed fingers before it rises anyway."""
 
