@@ -9,6 +9,7 @@ of the examples in the prompts, so repeated trials are not repeated prompts.
 
 from __future__ import annotations
 
+import time
 from collections import Counter
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
@@ -55,7 +56,8 @@ names included. Trial ``i`` uses entry ``i % 5``."""
 
 @dataclass
 class Outcome:
-    """One generated condition scored against its reference."""
+    """One generated condition scored against its reference; ``seconds`` of wall time spent on it, also
+    when no valid answer came (``error``)."""
 
     primitive: str
     mode: str
@@ -153,10 +155,11 @@ def evaluate_conditions(
                 exclude = (pid,) if mode == "generalization" else ()
                 score = getattr(result, mode)[pid]
                 score.trials += 1
+                start = time.perf_counter()
                 try:
                     gen = generator.generate(task, exclude=exclude, order_seed=trial, seed=trial)
                 except LLMError as exc:
-                    outcome = Outcome(pid, mode, task.name, False, 0.0, str(exc))
+                    outcome = Outcome(pid, mode, task.name, False, time.perf_counter() - start, str(exc))
                     score.failures["no valid answer"] += 1
                 else:
                     correct = gen.condition.matches(reference_condition(task))
