@@ -302,12 +302,12 @@ def test_a_vessel_of_any_roundness_loads(segments):
     has one wall box per segment plus the base."""
     import pybullet as p
 
-    from taskcond.sim.assets import VesselSpec, urdf_text, write_urdf
+    from taskcond.sim.assets import VesselSpec, build_asset
 
-    path = write_urdf("bowl", urdf_text("bowl", VesselSpec(segments=segments).links()))
+    asset = build_asset("bowl", VesselSpec(segments=segments))
     client = p.connect(p.DIRECT)
     try:
-        body = p.loadURDF(str(path), physicsClientId=client)
+        body = p.loadURDF(str(asset.path), physicsClientId=client)
         assert len(p.getCollisionShapeData(body, -1, physicsClientId=client)) == segments + 1
     finally:
         p.disconnect(client)
