@@ -13,8 +13,9 @@ import pytest
 from taskcond.conditions import ConditionError, TaskCondition
 from taskcond.examples import reference_condition
 from taskcond.generator import ConditionGenerator, answer_grammar, examples_block, parse_answer
-from taskcond.llm.base import ChatRequest, ChatResponse, LLMError
+from taskcond.llm.base import ChatMessage, ChatRequest, ChatResponse, LLMError, Sampling
 from taskcond.llm.cache import CachedBackend
+from taskcond.llm.embedded import PREFIX_CACHE_BYTES
 from taskcond.primitives import PRIMITIVES, parse_task
 
 GOOD_SPATIAL = """Relevant objects: A, B, gripper
@@ -349,3 +350,90 @@ def test_evaluation_scores_every_field_and_counts_invalid_answers_as_failures():
         ConditionGenerator(Replay([spatial, state])), 1, ["grasp"], modes=["generation"]
     )
     assert "| **all** | 100% (1/1) | not measured |" in only.table()
+
+
+def _small_request(question: str) -> ChatRequest:
+    """A few-shot chat of two examples and a question; its first three messages are the shared prefix."""
+    turns = [
+        ChatMessage("system", "Answer with the colour of the named fruit, in one word."),
+        ChatMessage("user", "banana"),
+        ChatMessage("assistant", "yellow"),
+        ChatMessage("user", "cherry"),
+        ChatMessage("assistant", "red"),
+        ChatMessage("user", question),
+    ]
+    return ChatRequest(tuple(turns), sampling=Sampling(max_tokens=4), shared_messages=3)
+
+
+@pytest.fixture
+def prefix_backend(embedded_backend, tmp_path):
+    """The session's embedded backend keeping its shared prefixes in ``tmp_path``, from an empty memory."""
+    embedded_backend.prefix_dir = tmp_path
+    embedded_backend.forget()
+    yield embedded_backend
+    embedded_backend.prefix_dir = None
+    embedded_backend.prefix_bytes = PREFIX_CACHE_BYTES
+    embedded_backend.forget()
+
+
+@pytest.mark.llm
+def test_embedded_prefix_state_on_disk_answers_like_evaluating_it(prefix_backend, tmp_path):
+    """A later process (here: the backend with its memory dropped) starts from the state kept on disk and
+    answers exactly as the first one did; a damaged state is evaluated again instead of loaded."""
+    first = prefix_backend.chat(_small_request("lime")).text
+    (state,) = tmp_path.glob("*.state")
+    hits = prefix_backend.prefix_hits
+    prefix_backend.forget()
+    assert prefix_backend.chat(_small_request("lime")).text == first
+    assert prefix_backend.prefix_hits == hits + 1
+    state.write_bytes(state.read_bytes()[:-100])
+    prefix_backend.forget()
+    assert prefix_backend.chat(_small_request("lime")).text == first
+    assert prefix_backend.prefix_hits == hits + 1
+    assert [s.stat().st_size for s in tmp_path.glob("*.state")] == [len(state.read_bytes())]
+
+
+@pytest.mark.llm
+def test_embedded_answer_does_not_depend_on_the_requests_before_it(embedded_backend):
+    """Every prompt is evaluated in the same segments, so a request answered from an empty context, after
+    a request sharing part of its prompt, or after an unrelated one, gets the same tokens."""
+    embedded_backend.forget()
+    alone = embedded_backend.chat(_small_request("plum")).text
+    embedded_backend.chat(_small_request("a lemon, or a grape if none"))
+    after_shared = embedded_backend.chat(_small_request("plum")).text
+    embedded_backend.chat(ChatRequest((ChatMessage("user", "Name a colour."),), Sampling(max_tokens=4)))
+    embedded_backend.chat(ChatRequest((ChatMessage("user", "Name a fruit."),), Sampling(max_tokens=4)))
+    after_other = embedded_backend.chat(_small_request("plum")).text
+    assert alone == after_shared == after_other
+
+
+@pytest.mark.llm
+def test_embedded_prefix_states_beyond_the_bound_are_dropped_oldest_first(prefix_backend, tmp_path):
+    prefix_backend.chat(_small_request("lime"))
+    (older,) = tmp_path.glob("*.state")
+    prefix_backend.prefix_bytes = older.stat().st_size + 1
+    other = _small_request("lime")
+    other = ChatRequest(
+        (ChatMessage("system", "Name the fruit's colour."), *other.messages[1:]),
+        other.sampling,
+        shared_messages=3,
+    )
+    prefix_backend.chat(other)
+    (kept,) = tmp_path.glob("*.state")
+    assert kept != older
+
+
+def test_the_shared_prefix_ends_before_the_repeated_own_example():
+    """v5's generation shares the system message and every example; the repeated own example and the
+    question follow it. The one-message layout marks nothing."""
+    gen = ConditionGenerator(Replay([]))
+    task = parse_task("grasp cup")
+    messages, shared = gen.layout("spatial", task)
+    assert shared == 1 + 2 * len(PRIMITIVES)
+    assert messages[shared].content == "Task name: grasp A"
+    assert len(messages) == shared + 3
+    other, other_shared = gen.layout("spatial", parse_task("open box"))
+    assert (
+        other_shared == shared and other[:shared] == messages[:shared] and other[shared] != messages[shared]
+    )
+    assert gen.layout("spatial", task, exclude=["grasp"])[1] == 0

@@ -297,6 +297,7 @@ class ChatTranscript:
 
     chat: Chat
     messages: tuple[ChatMessage, ...]
+    shared_messages: int = 0
     answers: list[str] = field(default_factory=list)
     errors: list[str] = field(default_factory=list)
     cached: bool = True
@@ -356,6 +357,12 @@ class ConditionGenerator:
     def messages(
         self, chat: Chat, task: ParsedTask, exclude: Iterable[str] = (), order_seed: int | None = None
     ) -> tuple[ChatMessage, ...]:
+        """The opening messages of one chat for ``task``; see :meth:`layout`."""
+        return self.layout(chat, task, exclude, order_seed)[0]
+
+    def layout(
+        self, chat: Chat, task: ParsedTask, exclude: Iterable[str] = (), order_seed: int | None = None
+    ) -> tuple[tuple[ChatMessage, ...], int]:
         """The opening messages of one chat for ``task``; chain-of-thought (Listing 4) when the task's
         primitive is excluded, its examples then with their worked reasoning if the prompt version has it
         (:func:`load_reasons`).
@@ -365,6 +372,10 @@ class ConditionGenerator:
         generation): each example is a user turn (its task name) and an assistant turn (its answer), and
         the question is the last user turn, so the model answers as it has answered before. The examples'
         order follows :attr:`example_order`.
+
+        Returns the messages and how many of them lead every prompt of this chat, task primitive aside
+        (the system message and the examples before the repeated own example; 0 in the one-message
+        layout): the prefix a backend may keep (:attr:`~taskcond.llm.base.ChatRequest.shared_messages`).
         """
         excluded = set(exclude)
         cot = task.primitive.id in excluded
@@ -376,16 +387,17 @@ class ConditionGenerator:
         nearest = task.primitive if order == "similar" else None
         reasons = load_reasons(chat, self.prompt_version) if cot else None
         examples = example_turns(chat, excluded, order_seed, nearest, reasons)
+        shared = 1 + 2 * len(examples)
         if order == "recall":
             own = f"Task name: {letter_example(task.primitive.id).task_name}"
             examples += [turn for turn in examples if turn[0] == own]
         if one_message:
             text = template.substitute(examples=_as_text(examples), task=task.letter_name)
-            return (ChatMessage("user", text),)
+            return (ChatMessage("user", text),), 0
         turns = [ChatMessage("system", template.template.strip())]
         for name, answer in examples:
             turns += [ChatMessage("user", name), ChatMessage("assistant", answer)]
-        return (*turns, ChatMessage("user", f"Task name: {task.letter_name}"))
+        return (*turns, ChatMessage("user", f"Task name: {task.letter_name}")), shared
 
     def prompt(
         self, chat: Chat, task: ParsedTask, exclude: Iterable[str] = (), order_seed: int | None = None
@@ -412,6 +424,7 @@ class ConditionGenerator:
                     seed=seed + attempt,
                 ),
                 grammar=grammar if constrained else None,
+                shared_messages=transcript.shared_messages,
             )
             response = self.backend.chat(request)
             transcript.cached &= response.cached
@@ -460,7 +473,7 @@ class ConditionGenerator:
         parts: dict[Chat, TaskCondition] = {}
         transcripts = []
         for chat in CHATS:
-            transcript = ChatTranscript(chat, self.messages(chat, task, excluded, order_seed))
+            transcript = ChatTranscript(chat, *self.layout(chat, task, excluded, order_seed))
             transcripts.append(transcript)
             if self.samples <= 1:
                 parts[chat] = self._chat(chat, task, seed, 0.0, transcript)

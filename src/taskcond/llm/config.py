@@ -94,7 +94,8 @@ def make_backend(config: LLMConfig) -> ChatBackend:
     if config.backend == "embedded":
         from taskcond.llm.embedded import EmbeddedBackend
 
-        backend = EmbeddedBackend(config.model or DEFAULT_EMBEDDED_MODEL)
+        prefixes = (config.cache_dir or cache_dir()) / "prefixes" if config.cache else None
+        backend = EmbeddedBackend(config.model or DEFAULT_EMBEDDED_MODEL, prefix_dir=prefixes)
     else:
         from taskcond.llm.openai_backend import OpenAIBackend
 

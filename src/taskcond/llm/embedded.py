@@ -5,14 +5,32 @@ the response cache, so fully cached runs never pay the load. Shared prompt prefi
 keeps a few llama.cpp contexts over the one memory-mapped model, and sends each request to the context
 whose last prompt shares the longest prefix with it, so the two chats of the condition generator (each
 with its long job-vocabulary-examples prefix) never evict each other and a new task name only evaluates
-its own few tokens. Answers are constrained by a GBNF grammar when the request carries one.
+its own few tokens. With a prefix directory, the evaluated prefix a request marks as shared
+(:attr:`~taskcond.llm.base.ChatRequest.shared_messages`) is also kept on disk as a llama.cpp state, so a
+new process starts from it instead of evaluating hundreds of tokens again. Answers are constrained by a
+GBNF grammar when the request carries one.
+
+A prompt is always evaluated in the same pieces, whatever was evaluated before it: its tokens are cut
+into segments before every message but an answer (a user turn and its answer are one segment) and after every
+token that ends a blank line (an example of a one-message prompt), and each segment is evaluated on its
+own, in batches of :data:`BATCH`.
+llama.cpp's results depend slightly on how a prompt is split into batches; with this split, a prefix kept
+in memory or on disk holds exactly what evaluating the whole prompt would, so an answer never depends on
+the requests before it, and a reused prefix ends at any message or example rather than at a multiple of
+the batch size.
 """
 
 from __future__ import annotations
 
+import ctypes
+import hashlib
+import itertools
+import json
 import os
+import tempfile
 import time
 from collections.abc import Sequence
+from pathlib import Path
 from typing import Any
 
 from taskcond.llm.base import ChatRequest, ChatResponse, LLMError
@@ -21,9 +39,11 @@ from taskcond.llm.models import DEFAULT_EMBEDDED_MODEL, get_embedded_model, mode
 CONTEXTS = 2
 """llama.cpp contexts kept (one per concurrent conversation; the weights are shared through mmap)."""
 BATCH = 64
-"""Tokens per llama.cpp batch: a reused prompt prefix is cut to a multiple of it (see
-:meth:`EmbeddedBackend._align_reuse`), so a small batch keeps most of the prefix; on 2 cores prompt
-evaluation is about as fast in batches of 64 as of 512."""
+"""Tokens per llama.cpp batch (on 2 cores prompt evaluation is about as fast in batches of 64 as of 512)."""
+PREFIX_CACHE_BYTES = 1 << 30
+"""Most bytes of prefix states kept on disk; the least recently used ones go first (one prefix of the
+condition generator's examples is about 17 MB)."""
+STATE_FORMAT = 1
 
 
 def _common_prefix_length(a: Sequence[object], b: Sequence[object]) -> int:
@@ -35,19 +55,42 @@ def _common_prefix_length(a: Sequence[object], b: Sequence[object]) -> int:
     return n
 
 
+def _split_state(blob: bytes) -> tuple[bytes, bytes]:
+    """A prefix state file: the SHA-256 of the llama.cpp state, then the state."""
+    return blob[:32], blob[32:]
+
+
 class EmbeddedBackend:
-    """llama.cpp in-process. ``model`` is a name of :data:`taskcond.llm.models.EMBEDDED_MODELS`."""
+    """llama.cpp in-process. ``model`` is a name of :data:`taskcond.llm.models.EMBEDDED_MODELS`.
+
+    Attributes:
+        prefix_dir: directory of the on-disk prefix states (``None``: none are kept), at most
+            ``prefix_bytes`` bytes of them.
+        prefix_hits: how many requests started from a prefix state read from disk.
+    """
 
     name = "embedded"
 
-    def __init__(self, model: str = DEFAULT_EMBEDDED_MODEL, n_ctx: int = 4096, n_threads: int | None = None):
+    def __init__(
+        self,
+        model: str = DEFAULT_EMBEDDED_MODEL,
+        n_ctx: int = 4096,
+        n_threads: int | None = None,
+        prefix_dir: Path | None = None,
+        prefix_bytes: int = PREFIX_CACHE_BYTES,
+    ):
         self.spec = get_embedded_model(model)
         self.model = model
         self.n_ctx = n_ctx
         self.n_threads = n_threads or os.cpu_count() or 1
+        self.prefix_dir = Path(prefix_dir) if prefix_dir is not None else None
+        self.prefix_bytes = prefix_bytes
+        self.prefix_hits = 0
         self._contexts: list[Any] = []
         self._last_prompt: list[str] = []
+        self._evaluated: list[int] = []
         self._grammars: dict[str, Any] = {}
+        self._breaks: dict[int, bool] = {}
         self.load_seconds = 0.0
 
     def _load(self) -> list[Any]:
@@ -75,11 +118,19 @@ class EmbeddedBackend:
             for _ in range(CONTEXTS)
         ]
         self._last_prompt = [""] * CONTEXTS
+        self._evaluated = [0] * CONTEXTS
         self._lru = list(range(CONTEXTS))
         self.load_seconds = time.perf_counter() - start
         return self._contexts
 
-    def _context_for(self, prompt: str) -> Any:
+    def forget(self) -> None:
+        """Drop every evaluated prompt from memory (the prefix states on disk stay)."""
+        for k, llm in enumerate(self._contexts):
+            llm.reset()
+            self._last_prompt[k] = ""
+            self._evaluated[k] = 0
+
+    def _context_for(self, prompt: str) -> int:
         """The context whose previous prompt shares the longest prefix with ``prompt``; when none shares at
         least half of it, the least recently used context (so two conversations never evict each other)."""
         contexts = self._load()
@@ -90,7 +141,7 @@ class EmbeddedBackend:
         self._lru.remove(best)
         self._lru.append(best)
         self._last_prompt[best] = prompt
-        return contexts[best]
+        return best
 
     def _grammar(self, text: str) -> Any:
         if text not in self._grammars:
@@ -102,33 +153,135 @@ class EmbeddedBackend:
                 raise LLMError(f"invalid GBNF grammar: {exc}", backend=self.name) from None
         return self._grammars[text]
 
-    def _align_reuse(self, llm: Any, messages: list[dict[str, str]]) -> None:
-        """Keep only a multiple of llama.cpp's batch size of the cached prompt prefix that ``messages``
-        share, so that the rest of the prompt is evaluated in the same batches as from an empty context.
-
-        llama.cpp's results depend slightly on how a prompt is split into batches; reusing a prefix of
-        arbitrary length would shift the split, and a greedy answer could then depend on which prompts
-        came before it in the process (seen: the same request answered differently in two test runs).
-        With batch-aligned reuse every answer equals the one from a fresh context, bit for bit.
-        """
+    def _tokens(self, llm: Any, messages: list[dict[str, str]]) -> list[int]:
+        """The prompt's tokens, as llama-cpp-python's chat completion makes them (ChatML)."""
         from llama_cpp import llama_chat_format
 
-        if self.spec.chat_format != "chatml":  # the only prompt format of the shipped models
-            llm.n_tokens = 0
-            return
         formatted = llama_chat_format.format_chatml(messages=messages)
-        tokens = llm.tokenize(
+        return llm.tokenize(
             formatted.prompt.encode("utf-8"), add_bos=not formatted.added_special, special=True
         )
-        shared = _common_prefix_length(llm.input_ids[: llm.n_tokens].tolist(), tokens)
-        llm.n_tokens = min(shared, len(tokens) - 1) // llm.n_batch * llm.n_batch
+
+    def _ends_blank_line(self, llm: Any, token: int) -> bool:
+        if token not in self._breaks:
+            self._breaks[token] = b"\n\n" in llm.detokenize([token], special=True)
+        return self._breaks[token]
+
+    def segment_starts(self, llm: Any, tokens: Sequence[int]) -> list[int]:
+        """Where the prompt's segments start: 0, before every ``<|im_start|>`` but one that follows a user
+        message (a user turn and the answer to it are one segment), after every token ending a blank line.
+        Each position depends only on the tokens up to it, so two prompts with a common prefix are cut
+        alike within it."""
+        im_start = llm.tokenize(b"<|im_start|>", add_bos=False, special=True)[0]
+        user = llm.tokenize(b"user", add_bos=False, special=False)[0]
+        starts = [0]
+        after_user = False
+        for i in range(1, len(tokens)):
+            if (tokens[i] == im_start and not after_user) or self._ends_blank_line(llm, tokens[i - 1]):
+                starts.append(i)
+            if tokens[i - 1] == im_start:
+                after_user = tokens[i] == user
+        return starts
+
+    def _prepare(self, slot: int, tokens: list[int], starts: list[int], shared_messages: int) -> None:
+        """Evaluate every segment of the prompt but the last (which the chat completion evaluates), from
+        the longest prefix the context holds or, for a shared prefix, the prefix directory holds."""
+        llm = self._contexts[slot]
+        held = min(self._evaluated[slot], llm.n_tokens)
+        same = _common_prefix_length(llm.input_ids[:held].tolist(), tokens)
+        last = starts[-1]
+        reuse = max(s for s in starts if s <= min(same, last))
+        im_start = llm.tokenize(b"<|im_start|>", add_bos=False, special=True)[0]
+        message_starts = [i for i, t in enumerate(tokens) if t == im_start]
+        hint = message_starts[shared_messages] if 0 < shared_messages < len(message_starts) else 0
+        hint = hint if 0 < hint <= last and self.prefix_dir is not None else 0
+        if reuse < hint and self._read_state(llm, tokens[:hint]):
+            reuse = hint
+            self.prefix_hits += 1
+        llm.n_tokens = reuse
+        for a, b in itertools.pairwise(starts):
+            if a >= reuse:
+                llm.eval(tokens[a:b])
+                if b == hint:
+                    self._write_state(llm, tokens[:hint])
+        # the chat completion evaluates the last segment in one piece too; what it generates is not
+        self._evaluated[slot] = len(tokens)
+
+    def _state_path(self, tokens: Sequence[int]) -> Path:
+        import llama_cpp
+
+        assert self.prefix_dir is not None
+        meta = {
+            "format": STATE_FORMAT,
+            "model": self.spec.sha256,
+            "llama_cpp": llama_cpp.__version__,
+            "n_ctx": self.n_ctx,
+            "n_batch": BATCH,
+            "n_threads": self.n_threads,
+        }
+        digest = hashlib.sha256(json.dumps(meta, sort_keys=True).encode())
+        digest.update(json.dumps(list(tokens)).encode())
+        return self.prefix_dir / f"{digest.hexdigest()}.state"
+
+    def _read_state(self, llm: Any, tokens: Sequence[int]) -> bool:
+        """Load the state of exactly ``tokens`` evaluated, if the prefix directory has it."""
+        import llama_cpp
+
+        path = self._state_path(tokens)
+        try:
+            digest, data = _split_state(path.read_bytes())
+        except OSError:
+            return False
+        if hashlib.sha256(data).digest() != digest:  # cut short or damaged: evaluate the prefix again
+            path.unlink(missing_ok=True)
+            return False
+        buf = (ctypes.c_uint8 * len(data)).from_buffer_copy(data)
+        if llama_cpp.llama_state_set_data(llm._ctx.ctx, buf, len(data)) != len(data):
+            llm.reset()
+            llm._ctx.kv_cache_clear()
+            path.unlink(missing_ok=True)
+            return False
+        llm.input_ids[: len(tokens)] = tokens
+        llm.n_tokens = len(tokens)
+        os.utime(path)
+        return True
+
+    def _write_state(self, llm: Any, tokens: Sequence[int]) -> None:
+        """Keep the context's state (``tokens`` evaluated) in the prefix directory, then drop the least
+        recently used states beyond :attr:`prefix_bytes`."""
+        import llama_cpp
+
+        path = self._state_path(tokens)
+        if path.exists():
+            return
+        size = llama_cpp.llama_state_get_size(llm._ctx.ctx)
+        buf = (ctypes.c_uint8 * size)()
+        n = llama_cpp.llama_state_get_data(llm._ctx.ctx, buf, size)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(dir=path.parent, suffix=".tmp")
+        data = memoryview(buf)[:n]
+        with os.fdopen(fd, "wb") as fh:
+            fh.write(hashlib.sha256(data).digest())
+            fh.write(data)
+        os.replace(tmp, path)
+        states = sorted(path.parent.glob("*.state"), key=lambda f: f.stat().st_mtime, reverse=True)
+        total = 0
+        for state in states:
+            total += state.stat().st_size
+            if total > self.prefix_bytes and state != path:
+                state.unlink(missing_ok=True)
 
     def chat(self, request: ChatRequest) -> ChatResponse:
-        llm = self._context_for("\n".join(m.content for m in request.messages))
+        slot = self._context_for("\n".join(m.content for m in request.messages))
+        llm = self._contexts[slot]
         messages = [{"role": m.role, "content": m.content} for m in request.messages]
-        self._align_reuse(llm, messages)
-        s = request.sampling
         start = time.perf_counter()
+        if self.spec.chat_format == "chatml":  # the only prompt format of the shipped models
+            tokens = self._tokens(llm, messages)
+            self._prepare(slot, tokens, self.segment_starts(llm, tokens), request.shared_messages)
+        else:
+            llm.n_tokens = 0
+        s = request.sampling
         out = llm.create_chat_completion(
             messages=messages,
             temperature=s.temperature,
