@@ -386,11 +386,12 @@ def test_embedded_prefix_state_on_disk_answers_like_evaluating_it(prefix_backend
     prefix_backend.forget()
     assert prefix_backend.chat(_small_request("lime")).text == first
     assert prefix_backend.prefix_hits == hits + 1
-    state.write_bytes(state.read_bytes()[:-100])
+    whole = state.read_bytes()
+    state.write_bytes(whole[:-100])
     prefix_backend.forget()
     assert prefix_backend.chat(_small_request("lime")).text == first
     assert prefix_backend.prefix_hits == hits + 1
-    assert [s.stat().st_size for s in tmp_path.glob("*.state")] == [len(state.read_bytes())]
+    assert [s.read_bytes() for s in tmp_path.glob("*.state")] == [whole]  # written whole again
 
 
 @pytest.mark.llm
@@ -437,3 +438,16 @@ def test_the_shared_prefix_ends_before_the_repeated_own_example():
         other_shared == shared and other[:shared] == messages[:shared] and other[shared] != messages[shared]
     )
     assert gen.layout("spatial", task, exclude=["grasp"])[1] == 0
+
+
+@pytest.mark.llm
+def test_embedded_prefix_directory_that_cannot_be_written_only_costs_time(prefix_backend, tmp_path):
+    """The prefix states only save time: a prefix directory that cannot be created leaves the answer as
+    it is and raises nothing."""
+    answer = prefix_backend.chat(_small_request("lime")).text
+    blocked = tmp_path / "not-a-directory"
+    blocked.write_text("a file where the directory should be")
+    prefix_backend.prefix_dir = blocked / "prefixes"
+    prefix_backend.forget()
+    assert prefix_backend.chat(_small_request("lime")).text == answer
+    assert blocked.read_text() == "a file where the directory should be"

@@ -22,6 +22,7 @@ the batch size.
 
 from __future__ import annotations
 
+import contextlib
 import ctypes
 import hashlib
 import itertools
@@ -44,6 +45,7 @@ PREFIX_CACHE_BYTES = 1 << 30
 """Most bytes of prefix states kept on disk; the least recently used ones go first (one prefix of the
 condition generator's examples is about 17 MB)."""
 STATE_FORMAT = 1
+"""Version of a prefix state file (the SHA-256 of a llama.cpp state, then the state), part of its key."""
 
 
 def _common_prefix_length(a: Sequence[object], b: Sequence[object]) -> int:
@@ -53,11 +55,6 @@ def _common_prefix_length(a: Sequence[object], b: Sequence[object]) -> int:
         if a[i] != b[i]:
             return i
     return n
-
-
-def _split_state(blob: bytes) -> tuple[bytes, bytes]:
-    """A prefix state file: the SHA-256 of the llama.cpp state, then the state."""
-    return blob[:32], blob[32:]
 
 
 class EmbeddedBackend:
@@ -91,6 +88,7 @@ class EmbeddedBackend:
         self._evaluated: list[int] = []
         self._grammars: dict[str, Any] = {}
         self._breaks: dict[int, bool] = {}
+        self._im_start = self._user = -1
         self.load_seconds = 0.0
 
     def _load(self) -> list[Any]:
@@ -120,6 +118,9 @@ class EmbeddedBackend:
         self._last_prompt = [""] * CONTEXTS
         self._evaluated = [0] * CONTEXTS
         self._lru = list(range(CONTEXTS))
+        first = self._contexts[0]
+        self._im_start = first.tokenize(b"<|im_start|>", add_bos=False, special=True)[0]
+        self._user = first.tokenize(b"user", add_bos=False, special=False)[0]
         self.load_seconds = time.perf_counter() - start
         return self._contexts
 
@@ -172,15 +173,13 @@ class EmbeddedBackend:
         message (a user turn and the answer to it are one segment), after every token ending a blank line.
         Each position depends only on the tokens up to it, so two prompts with a common prefix are cut
         alike within it."""
-        im_start = llm.tokenize(b"<|im_start|>", add_bos=False, special=True)[0]
-        user = llm.tokenize(b"user", add_bos=False, special=False)[0]
         starts = [0]
         after_user = False
         for i in range(1, len(tokens)):
-            if (tokens[i] == im_start and not after_user) or self._ends_blank_line(llm, tokens[i - 1]):
+            if (tokens[i] == self._im_start and not after_user) or self._ends_blank_line(llm, tokens[i - 1]):
                 starts.append(i)
-            if tokens[i - 1] == im_start:
-                after_user = tokens[i] == user
+            if tokens[i - 1] == self._im_start:
+                after_user = tokens[i] == self._user
         return starts
 
     def _prepare(self, slot: int, tokens: list[int], starts: list[int], shared_messages: int) -> None:
@@ -191,13 +190,15 @@ class EmbeddedBackend:
         same = _common_prefix_length(llm.input_ids[:held].tolist(), tokens)
         last = starts[-1]
         reuse = max(s for s in starts if s <= min(same, last))
-        im_start = llm.tokenize(b"<|im_start|>", add_bos=False, special=True)[0]
-        message_starts = [i for i, t in enumerate(tokens) if t == im_start]
+        message_starts = [i for i, t in enumerate(tokens) if t == self._im_start]
         hint = message_starts[shared_messages] if 0 < shared_messages < len(message_starts) else 0
         hint = hint if 0 < hint <= last and self.prefix_dir is not None else 0
-        if reuse < hint and self._read_state(llm, tokens[:hint]):
-            reuse = hint
-            self.prefix_hits += 1
+        if reuse < hint:
+            if self._read_state(llm, tokens[:hint]):
+                reuse = hint
+                self.prefix_hits += 1
+            else:  # a state llama.cpp refused leaves the context empty
+                reuse = min(reuse, llm.n_tokens)
         llm.n_tokens = reuse
         for a, b in itertools.pairwise(starts):
             if a >= reuse:
@@ -224,14 +225,16 @@ class EmbeddedBackend:
         return self.prefix_dir / f"{digest.hexdigest()}.state"
 
     def _read_state(self, llm: Any, tokens: Sequence[int]) -> bool:
-        """Load the state of exactly ``tokens`` evaluated, if the prefix directory has it."""
+        """Load the state of exactly ``tokens`` evaluated, if the prefix directory has it. A state that
+        llama.cpp refuses empties the context (``n_tokens`` 0)."""
         import llama_cpp
 
         path = self._state_path(tokens)
         try:
-            digest, data = _split_state(path.read_bytes())
+            blob = path.read_bytes()
         except OSError:
             return False
+        digest, data = blob[:32], blob[32:]
         if hashlib.sha256(data).digest() != digest:  # cut short or damaged: evaluate the prefix again
             path.unlink(missing_ok=True)
             return False
@@ -243,12 +246,14 @@ class EmbeddedBackend:
             return False
         llm.input_ids[: len(tokens)] = tokens
         llm.n_tokens = len(tokens)
-        os.utime(path)
+        with contextlib.suppress(OSError):  # another process may have just dropped it
+            os.utime(path)
         return True
 
     def _write_state(self, llm: Any, tokens: Sequence[int]) -> None:
         """Keep the context's state (``tokens`` evaluated) in the prefix directory, then drop the least
-        recently used states beyond :attr:`prefix_bytes`."""
+        recently used states beyond :attr:`prefix_bytes`. The states only save time: a directory that
+        cannot be written (full, read-only) or that another process prunes at the same time keeps none."""
         import llama_cpp
 
         path = self._state_path(tokens)
@@ -257,17 +262,26 @@ class EmbeddedBackend:
         size = llama_cpp.llama_state_get_size(llm._ctx.ctx)
         buf = (ctypes.c_uint8 * size)()
         n = llama_cpp.llama_state_get_data(llm._ctx.ctx, buf, size)
-        path.parent.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(dir=path.parent, suffix=".tmp")
         data = memoryview(buf)[:n]
-        with os.fdopen(fd, "wb") as fh:
-            fh.write(hashlib.sha256(data).digest())
-            fh.write(data)
-        os.replace(tmp, path)
-        states = sorted(path.parent.glob("*.state"), key=lambda f: f.stat().st_mtime, reverse=True)
+        tmp = None
+        try:
+            path.parent.mkdir(parents=True, exist_ok=True)
+            fd, tmp = tempfile.mkstemp(dir=path.parent, suffix=".tmp")
+            with os.fdopen(fd, "wb") as fh:
+                fh.write(hashlib.sha256(data).digest())
+                fh.write(data)
+            os.replace(tmp, path)
+        except OSError:
+            if tmp is not None:
+                Path(tmp).unlink(missing_ok=True)
+            return
+        stats = []
+        for state in path.parent.glob("*.state"):
+            with contextlib.suppress(OSError):
+                stats.append((state.stat(), state))
         total = 0
-        for state in states:
-            total += state.stat().st_size
+        for st, state in sorted(stats, key=lambda entry: entry[0].st_mtime, reverse=True):
+            total += st.st_size
             if total > self.prefix_bytes and state != path:
                 state.unlink(missing_ok=True)
 
