@@ -194,6 +194,24 @@ def test_blowup_ends_episode_with_reason(env):
     assert terminated and info["failure"] == "bottle_left_workspace"
 
 
+def test_deep_penetration_of_a_moved_body_ends_episode_in_its_own_client(env):
+    """Late in an episode the check reads only the contacts of the bodies that moved; it must read them
+    in this environment's client, whatever other clients are open (``env`` keeps one open)."""
+    other = make("grasp-bottle", seed=0)
+    try:
+        assert other.scene.client != env.scene.client
+        obs, _ = other.reset(seed=0)
+        hold = np.concatenate([obs["ee_position"], obs["ee_orientation"], [0.0]])
+        for _ in range(90):  # everything at rest, so that only the moved bodies are queried
+            other.step(hold)
+        pos, _ = other.scene.pose("bottle")
+        other.scene.place("bottle", pos[:2], other.scene.yaw("bottle"), z=-0.09)
+        _, _, terminated, _, info = other.step(hold)
+        assert terminated and info["failure"] == "deep_penetration"
+    finally:
+        other.close()
+
+
 def test_success_checks_on_hand_placed_states(env):
     env.reset(seed=0)
     truth, scene = env.truth, env.scene

@@ -480,9 +480,8 @@ class KitchenEnv(gym.Env):
         bodies = self._moved_bodies(reading)
         if bodies is not None:
             for body in bodies:
-                if any(
-                    map(_DEEPER_THAN_PENETRATION, map(_CONTACT_DISTANCE, p.getContactPoints(body, client)))
-                ):
+                points = p.getContactPoints(bodyA=body, physicsClientId=client)
+                if any(map(_DEEPER_THAN_PENETRATION, map(_CONTACT_DISTANCE, points))):
                     return "deep_penetration"
             return None
         points = p.getContactPoints(physicsClientId=client)
