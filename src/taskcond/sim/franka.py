@@ -175,12 +175,14 @@ class Franka:
         limits. PyBullet's IK measures targets from the base's centre of mass, not its link frame, so the
         target is shifted by that offset."""
         seed = self.joint_positions() if seed is None else np.asarray(seed, dtype=float)
+        x, y, z = position
+        bx, by, bz = self._ik_bias
         q = p.calculateInverseKinematics(
             self.body,
             EE_LINK,
-            [float(v) - b for v, b in zip(position, self._ik_bias, strict=True)],
-            [float(v) for v in orientation],
-            currentPositions=[*seed.tolist(), 0.0, 0.0],
+            (float(x) - bx, float(y) - by, float(z) - bz),
+            tuple(map(float, orientation)),
+            currentPositions=(*seed.tolist(), 0.0, 0.0),
             jointDamping=damping,
             maxNumIterations=max_iterations,
             residualThreshold=IK_RESIDUAL,

@@ -16,6 +16,7 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 from functools import cached_property
+from itertools import chain
 from operator import itemgetter
 
 import numpy as np
@@ -216,6 +217,8 @@ class KitchenScene:
             "microwave", self.bodies["microwave"], 0, 0.0, cfg.microwave.open_angle, 0.5
         )
         self._container_reads = self._plan_container_reads()
+        self._container_ranges = [r for _, _, ranges in self._container_reads for r in ranges]
+        """Closed position and range (m or rad) of each container joint, in :data:`ARTICULATED` order."""
         friction = {"bottom drawer": 3.0, "top drawer": 3.0, "box": 0.01, "microwave": 0.3}
         for name, joint in self.joints.items():
             p.setJointMotorControl2(
@@ -433,8 +436,7 @@ class KitchenScene:
             positions = self.container_joint_positions()
         return [
             (q - closed) / span
-            for joints, (_, _, ranges) in zip(positions, self._container_reads, strict=True)
-            for q, (closed, span) in zip(joints, ranges, strict=True)
+            for q, (closed, span) in zip(chain.from_iterable(positions), self._container_ranges, strict=True)
         ]
 
     def interior(self, container: str) -> WorldInterior:

@@ -39,7 +39,8 @@ After every control step the soft-body anchors of the grippers on the cloth are 
 from __future__ import annotations
 
 import math
-from operator import itemgetter
+from itertools import compress
+from operator import itemgetter, ne, or_
 from typing import Any, ClassVar, NamedTuple
 
 import gymnasium as gym
@@ -51,7 +52,7 @@ from taskcond.sim.franka import ARM_JOINTS, FINGER_JOINTS, HOME, top_down
 from taskcond.sim.kinova import GEN3_HOME
 from taskcond.sim.scene import ARTICULATED, PHYSICS_HZ, FramePose, KitchenScene, SceneConfig
 from taskcond.tasks.base import Task
-from taskcond.tasks.groundtruth import GroundTruth
+from taskcond.tasks.groundtruth import GroundTruth, KnownState
 
 WORKSPACE = (np.array([-0.4, -1.0, -0.2]), np.array([1.1, 1.0, 1.5]))
 """Bounds (min, max) in metres of where free objects may be; leaving them ends the episode."""
@@ -68,7 +69,7 @@ BODY_QUERIES = 3
 _DEEPER_THAN_PENETRATION = (-PENETRATION).__gt__
 """Whether a contact distance (m, negative inside) is below ``-PENETRATION``: ``False`` for NaN, as ``<``."""
 _FIRST = itemgetter(0)
-"""Item 0 of a PyBullet tuple: a joint state's position, a base pose's centre of mass."""
+"""Item 0 of a ``p.getJointStates`` entry: the joint position (m or rad)."""
 _CONTACT_DISTANCE = itemgetter(8)
 """Item 8 of a ``p.getContactPoints`` tuple: the contact distance (m, negative when penetrating)."""
 RENDER_SIZE = (320, 240)
@@ -96,6 +97,8 @@ class _Reading(NamedTuple):
             :attr:`KitchenEnv.object_names`, as ``p.getBasePositionAndOrientation`` reports it.
         containers: container joint positions (m or rad) per articulated body
             (:meth:`~taskcond.sim.scene.KitchenScene.container_joint_positions`).
+        open_fractions: open fraction of each container of :data:`~taskcond.sim.scene.ARTICULATED`, in that
+            order, from ``containers`` (:meth:`~taskcond.sim.scene.KitchenScene.open_fractions`).
         cloth_nodes: (n*n, 3) world node positions (m) of the cloth, or ``None`` without one.
     """
 
@@ -103,6 +106,7 @@ class _Reading(NamedTuple):
     fingers: list[float]
     bases: list[FramePose]
     containers: list[tuple[float, ...]]
+    open_fractions: list[float]
     cloth_nodes: np.ndarray | None
 
 
@@ -263,17 +267,18 @@ class KitchenEnv(gym.Env):
             if self.scene.grips is not None:
                 self.scene.grips.update()
         reading = self._read()
+        contacts: dict[int, Any] = {}
         if self.failure is None:
-            self.failure = self._check_blowup(reading)
+            self.failure = self._check_blowup(reading, contacts)
         self.steps += 1
         success = False
         if self.failure is None:
-            # nothing moves until the step returns: the success check takes the centres of mass just read
-            self.truth.known_coms = dict(zip(self.object_names, map(_FIRST, reading.bases), strict=True))
+            # nothing moves until the step returns: the success check takes the state just read
+            self.truth.known = KnownState(reading.bases, reading.open_fractions, contacts)
             try:
                 success = self.task.success(self)
             finally:
-                self.truth.known_coms = None
+                self.truth.known = None
         terminated = self.failure is not None
         truncated = self.steps >= self.task.max_steps
         return self._obs(reading), float(success), terminated, truncated, self._info(success)
@@ -364,15 +369,17 @@ class KitchenEnv(gym.Env):
     def _read(self) -> _Reading:
         """Read the Franka's joints, the free objects' poses, the container joints and the cloth's nodes
         (one query each, one per articulated body)."""
-        client = self.scene.client
+        scene, client = self.scene, self.scene.client
         positions = list(map(_FIRST, p.getJointStates(self.robot.body, _ROBOT_JOINTS, client)))
         base_pose = p.getBasePositionAndOrientation
+        containers = scene.container_joint_positions()
         return _Reading(
             positions[:_ARM_DOFS],
             positions[_ARM_DOFS:],
             [base_pose(body, client) for body in self._free_ids],
-            self.scene.container_joint_positions(),
-            self.scene.cloth_nodes() if self.scene.cloth is not None else None,
+            containers,
+            scene.open_fractions(containers),
+            scene.cloth_nodes() if scene.cloth is not None else None,
         )
 
     def _obs(self, reading: _Reading | None = None) -> dict[str, np.ndarray]:
@@ -397,7 +404,7 @@ class KitchenEnv(gym.Env):
             "gripper_width": np.array([fingers[0] + fingers[1]]),
             "joint_positions": np.array(reading.arm),
             "object_poses": np.array(flat).reshape(len(self._free_ids), 7),
-            "container_open": np.array(self.scene.open_fractions(reading.containers)),
+            "container_open": np.array(reading.open_fractions),
             "target": self.target.copy(),
         }
         if self.kinova is not None:
@@ -441,22 +448,20 @@ class KitchenEnv(gym.Env):
         if self._tracked is None or before is None:
             self._moved_before = [True] * len(states)
             return None
-        moved = [a != b for a, b in zip(states, before, strict=True)]
-        bodies = [
-            body
-            for body, now, then in zip(self._tracked, moved, self._moved_before, strict=True)
-            if now or then
-        ]
+        # the lists have one entry per tracked body (the scene's bodies are fixed at construction)
+        moved = list(map(ne, states, before))
+        bodies = list(compress(self._tracked, map(or_, moved, self._moved_before)))
         self._moved_before = moved
         return bodies if len(bodies) <= BODY_QUERIES else None
 
-    def _check_blowup(self, reading: _Reading) -> str | None:
+    def _check_blowup(self, reading: _Reading, contacts: dict[int, Any]) -> str | None:
         """The blow-up of the state in ``reading`` and the current contacts, or ``None``: ``nan_state`` (a
         non-finite Franka arm joint, free-object position, Kinova joint or cloth node),
         ``<object>_left_workspace`` (the first free object whose centre of mass is outside
         :data:`WORKSPACE`), ``cloth_left_workspace``, ``deep_penetration`` (a rigid contact deeper than
         :data:`PENETRATION`; the contacts of the bodies :meth:`_moved_bodies` names, all of them when it
-        names none), checked in this order."""
+        names none), checked in this order. The contact points read body by body are put in ``contacts``
+        (body id → ``p.getContactPoints(bodyA=body)``) for the success check."""
         if not all(map(math.isfinite, reading.arm)):
             return "nan_state"
         (x_lo, x_hi), (y_lo, y_hi), (z_lo, z_hi) = _WORKSPACE_BOUNDS
@@ -480,7 +485,7 @@ class KitchenEnv(gym.Env):
         bodies = self._moved_bodies(reading)
         if bodies is not None:
             for body in bodies:
-                points = p.getContactPoints(bodyA=body, physicsClientId=client)
+                points = contacts[body] = p.getContactPoints(bodyA=body, physicsClientId=client)
                 if any(map(_DEEPER_THAN_PENETRATION, map(_CONTACT_DISTANCE, points))):
                     return "deep_penetration"
             return None

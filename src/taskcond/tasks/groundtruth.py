@@ -19,6 +19,9 @@ perception layer, and are written as predicates of :mod:`taskcond.conditions` wh
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+from typing import Any, NamedTuple
+
 import numpy as np
 import pybullet as p
 
@@ -30,7 +33,7 @@ from taskcond.conditions import (
     SpatialRelation,
 )
 from taskcond.sim.franka import FINGER_JOINTS
-from taskcond.sim.scene import GRIPPER, KINOVA_GRIPPER, KitchenScene
+from taskcond.sim.scene import ARTICULATED, GRIPPER, KINOVA_GRIPPER, FramePose, KitchenScene
 
 CLOSED_FRACTION = 0.08
 """A container is closed when its joint is within this fraction of its range from closed."""
@@ -42,26 +45,44 @@ ABOVE_TOLERANCE = 0.01
 """Metres A's lowest point may sink below B's top for ``A above B``."""
 
 
+class KnownState(NamedTuple):
+    """What the caller has read of the current simulator state (:attr:`GroundTruth.known`).
+
+    Attributes:
+        bases: centre-of-mass pose (position m, quaternion xyzw, world) of each free object, in the order of
+            ``KitchenScene.free_objects``, as ``p.getBasePositionAndOrientation`` reports it.
+        open_fractions: open fraction of each container of :data:`~taskcond.sim.scene.ARTICULATED`, in that
+            order, as ``KitchenScene.open_fractions`` computes it.
+        contacts: body id → its contact points as ``p.getContactPoints(bodyA=body)`` reports them, for the
+            bodies the caller read (the others are asked for).
+    """
+
+    bases: Sequence[FramePose]
+    open_fractions: Sequence[float]
+    contacts: dict[int, Sequence[tuple[Any, ...]]]
+
+
 class GroundTruth:
     """Predicates of the condition vocabulary evaluated on a :class:`KitchenScene`."""
 
     def __init__(self, scene: KitchenScene) -> None:
         self.scene = scene
         self._free_by_body = {scene.bodies[name]: name for name in scene.free_objects}
-        self.known_coms: dict[str, tuple[float, float, float]] | None = None
-        """Centres of mass (m, world) of the free objects, as ``p.getBasePositionAndOrientation`` reports
-        them, while the caller holds them for the current state (:meth:`taskcond.tasks.env.KitchenEnv.step`
-        sets them around its success check from the step's own reading, and clears them); ``None``:
-        :meth:`com` asks PyBullet."""
+        self._free_index = {name: k for k, name in enumerate(scene.free_objects)}
+        self._container_index = {name: k for k, name in enumerate(ARTICULATED)}
+        self.known: KnownState | None = None
+        """The current state as the caller read it, while it holds (:meth:`taskcond.tasks.env.KitchenEnv.step`
+        sets it around its success check from the step's own reading, and clears it); ``None``: every
+        predicate asks PyBullet."""
 
     def com(self, name: str) -> np.ndarray:
         """Centre (3,) m, world: centre of mass of a free object, mean node of the cloth, AABB centre of
         anything else."""
         if name == "cloth" and self.scene.cloth is not None:
             return self.scene.cloth_nodes().mean(axis=0)
-        known = self.known_coms
-        if known is not None and name in known:
-            return np.array(known[name])
+        known = self.known
+        if known is not None and name in self._free_index:
+            return np.array(known.bases[self._free_index[name]][0])
         if name in self.scene.free_objects:
             return np.array(
                 p.getBasePositionAndOrientation(self.scene.bodies[name], physicsClientId=self.scene.client)[0]
@@ -77,30 +98,43 @@ class GroundTruth:
             raise KeyError(f"no gripper named {gripper!r} in the scene")
         return self.scene.robot.body, FINGER_JOINTS
 
+    def contacts(self, body: int) -> Sequence[tuple[Any, ...]]:
+        """The contact points of ``body`` as ``p.getContactPoints(bodyA=body)`` reports them (``body`` is
+        each point's body A, item 1): those :attr:`known` holds, else asked now."""
+        known = self.known
+        if known is not None:
+            points = known.contacts.get(body)
+            if points is not None:
+                return points
+        return p.getContactPoints(bodyA=body, physicsClientId=self.scene.client)
+
     def finger_contacts(self, name: str, gripper: str = GRIPPER) -> tuple[bool, bool]:
-        """Whether the left and the right finger of ``gripper`` touch ``name``."""
+        """Whether the left and the right finger of ``gripper`` touch ``name`` (the arm's contact points
+        with ``name``'s body, and link if it is one, on each finger link)."""
         robot, fingers = self._fingers(gripper)
         body = self.scene.bodies[name]
         link = self.scene.links.get(name, -1)
-        out = []
-        for finger in fingers:
-            pts = p.getContactPoints(robot, body, finger, physicsClientId=self.scene.client)
-            out.append(any(pt[4] == link or link < 0 for pt in pts))
-        return out[0], out[1]
-
-    def free_objects_touched(self, gripper: str = GRIPPER) -> tuple[set[str], set[str]]:
-        """The free objects the left and the right finger of ``gripper`` touch (one contact query per
-        finger)."""
-        robot, fingers = self._fingers(gripper)
-        by_body, client = self._free_by_body, self.scene.client
+        points = self.contacts(robot)
         left, right = (
-            {
-                by_body[pt[2]]
-                for pt in p.getContactPoints(bodyA=robot, linkIndexA=finger, physicsClientId=client)
-                if pt[2] in by_body
-            }
+            any(pt[2] == body and pt[3] == finger and (link < 0 or pt[4] == link) for pt in points)
             for finger in fingers
         )
+        return left, right
+
+    def free_objects_touched(self, gripper: str = GRIPPER) -> tuple[set[str], set[str]]:
+        """The free objects the left and the right finger of ``gripper`` touch (from the arm's contact
+        points)."""
+        robot, (left_finger, right_finger) = self._fingers(gripper)
+        by_body = self._free_by_body
+        left: set[str] = set()
+        right: set[str] = set()
+        for pt in self.contacts(robot):
+            name = by_body.get(pt[2])
+            if name is not None:
+                if pt[3] == left_finger:
+                    left.add(name)
+                elif pt[3] == right_finger:
+                    right.add(name)
         return left, right
 
     def grasping(self, name: str, gripper: str = GRIPPER) -> bool:
@@ -127,21 +161,30 @@ class GroundTruth:
         left, right = self.free_objects_touched(gripper)
         return bool(left or right)
 
+    def open_fraction(self, container: str) -> float:
+        """How far open an articulated container is (0 closed, 1 fully open): from :attr:`known` if set,
+        else :meth:`KitchenScene.open_fraction`."""
+        known = self.known
+        if known is not None:
+            return known.open_fractions[self._container_index[container]]
+        return self.scene.open_fraction(container)
+
     def is_open(self, container: str) -> bool:
         if container not in self.scene.joints:
             return container in self.scene.interiors
-        return self.scene.open_fraction(container) >= self.scene.joints[container].open_fraction
+        return self.open_fraction(container) >= self.scene.joints[container].open_fraction
 
     def is_closed(self, container: str) -> bool:
         if container not in self.scene.joints:
             return False
-        return self.scene.open_fraction(container) <= CLOSED_FRACTION
+        return self.open_fraction(container) <= CLOSED_FRACTION
 
     def inside(self, a: str, b: str) -> bool:
         if b not in self.scene.interiors:
             return False
-        known = self.known_coms
-        point = known[a] if known is not None and a in known else self.com(a)
+        known = self.known
+        index = self._free_index.get(a)
+        point = known.bases[index][0] if known is not None and index is not None else self.com(a)
         return self.scene.interior(b).contains(point, INSIDE_MARGIN)
 
     def above(self, a: str, b: str) -> bool:
@@ -183,4 +226,4 @@ class GroundTruth:
         return self.in_front_of(a, b)
 
 
-__all__ = ["GroundTruth"]
+__all__ = ["GroundTruth", "KnownState"]
