@@ -15,7 +15,7 @@ from taskcond.examples import reference_condition
 from taskcond.generator import ConditionGenerator, answer_grammar, examples_block, parse_answer
 from taskcond.llm.base import ChatMessage, ChatRequest, ChatResponse, LLMError, Sampling
 from taskcond.llm.cache import CachedBackend
-from taskcond.llm.embedded import PREFIX_CACHE_BYTES
+from taskcond.llm.embedded import PREFIX_CACHE_BYTES, EmbeddedBackend
 from taskcond.primitives import PRIMITIVES, parse_task
 
 GOOD_SPATIAL = """Relevant objects: A, B, gripper
@@ -451,3 +451,53 @@ def test_embedded_prefix_directory_that_cannot_be_written_only_costs_time(prefix
     prefix_backend.forget()
     assert prefix_backend.chat(_small_request("lime")).text == answer
     assert blocked.read_text() == "a file where the directory should be"
+
+
+def test_lookup_proposes_the_continuation_of_the_longest_earlier_match():
+    """Prompt lookup: the place whose preceding tokens match the most of the sequence's end wins (here the
+    second ``7 8 9``, preceded by ``6`` as the end is), and the draft is twice the match long, at least 4."""
+    tokens = [1, 7, 8, 9, 10, 11, 6, 7, 8, 9, 20, 21, 22, 23, 24, 25, 26, 27, 28, 6, 7, 8, 9]
+    starts: dict[tuple[int, ...], list[int]] = {}
+    for i in range(3, len(tokens) + 1):
+        starts.setdefault(tuple(tokens[i - 3 : i]), []).append(i)
+    assert EmbeddedBackend.lookup(tokens, starts) == [20, 21, 22, 23, 24, 25, 26, 27]
+    assert EmbeddedBackend.lookup([*tokens, 99, 98, 97], starts) == []
+    assert EmbeddedBackend.lookup([5, 5, 5, 1, 2, 3, 4, 1, 2, 3], {(1, 2, 3): [6, 10]}) == [4, 1, 2, 3]
+
+
+@pytest.mark.llm
+def test_embedded_drafts_keep_the_greedy_answer(embedded_backend, monkeypatch):
+    """Drafts from the prompt change how many evaluations an answer takes, not the answer: a generation
+    prompt (whose answer the repeated own example shows), a chain-of-thought prompt and a request cut by
+    ``max_tokens`` get llama-cpp-python's own greedy completion, with and without drafts."""
+    gen = ConditionGenerator(embedded_backend)
+    requests = [
+        ChatRequest(gen.messages("state", parse_task("move bowl into top drawer")), stop=("\n\n",)),
+        ChatRequest(gen.messages("spatial", parse_task("tilt cup"), exclude=["tilt"]), stop=("\n\n",)),
+        _small_request("lime"),
+    ]
+    for request in requests:
+        embedded_backend.forget()
+        drafted = embedded_backend.accepted
+        with_drafts = embedded_backend.chat(request)
+        assert with_drafts.completion_tokens <= request.sampling.max_tokens
+        if request is requests[0]:
+            assert embedded_backend.accepted - drafted >= with_drafts.completion_tokens - 2
+        monkeypatch.setattr(embedded_backend, "draft", False)
+        embedded_backend.forget()
+        assert embedded_backend.chat(request).text == with_drafts.text
+        monkeypatch.setattr(embedded_backend, "draft", True)
+        embedded_backend.forget()
+        llm = embedded_backend._contexts[0]  # as the backend answered before it drafted
+        messages = [{"role": m.role, "content": m.content} for m in request.messages]
+        tokens = embedded_backend._tokens(llm, messages)
+        embedded_backend._prepare(0, tokens, embedded_backend.segment_starts(llm, tokens), 0)
+        reference = llm.create_chat_completion(
+            messages=messages,
+            temperature=0.0,
+            top_k=1,
+            max_tokens=request.sampling.max_tokens,
+            stop=list(request.stop) or None,
+        )
+        embedded_backend.forget()
+        assert with_drafts.text == reference["choices"][0]["message"]["content"]
