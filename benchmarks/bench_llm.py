@@ -124,7 +124,17 @@ def main() -> None:
         backend.forget()
         warm_start = gen.generate("release bottle").seconds
         assert backend.prefix_hits == 2
+        before = backend.drafted, backend.accepted
         generation = [gen.generate(t).seconds for t in TASKS]
+        proposed, kept = backend.drafted - before[0], backend.accepted - before[1]
+        # the same prompts again, past the response cache, alternately without and with drafts
+        raw = ConditionGenerator(backend)
+        plain, with_drafts = [], []
+        for t in TASKS:
+            backend.draft = False
+            plain.append(raw.generate(t).seconds)
+            backend.draft = True
+            with_drafts.append(raw.generate(t).seconds)
         loo = [gen.generate(t, exclude=[parse_task(t).primitive.id]).seconds for t in TASKS]
         cached = []
         for _ in range(args.repeats):
@@ -139,6 +149,12 @@ def main() -> None:
         ("first condition of a process, no prefix states on disk", f"{cold:.2f} s"),
         ("first condition of a later process, prefix states on disk", f"{warm_start:.2f} s"),
         (f"generation, uncached, median of {n} (max)", f"{med(generation):.2f} s ({max(generation):.2f})"),
+        ("generation, draft tokens kept / proposed", f"{kept} / {proposed}"),
+        (
+            f"generation again, median of {n}: without drafts / with drafts (median ratio)",
+            f"{med(plain):.2f} s / {med(with_drafts):.2f} s "
+            f"({med(a / b for a, b in zip(plain, with_drafts, strict=True)):.2f})",
+        ),
         (
             f"generalization (leave-one-out), uncached, median of {n} (max)",
             f"{med(loo):.2f} s ({max(loo):.2f})",

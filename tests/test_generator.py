@@ -468,12 +468,14 @@ def test_lookup_proposes_the_continuation_of_the_longest_earlier_match():
 @pytest.mark.llm
 def test_embedded_drafts_keep_the_greedy_answer(embedded_backend, monkeypatch):
     """Drafts from the prompt change how many evaluations an answer takes, not the answer: a generation
-    prompt (whose answer the repeated own example shows), a chain-of-thought prompt and a request cut by
-    ``max_tokens`` get llama-cpp-python's own greedy completion, with and without drafts."""
+    prompt (whose answer the repeated own example shows, nearly all of it accepted from drafts) and a
+    request cut by ``max_tokens`` get llama-cpp-python's own greedy completion, with and without drafts.
+    (A free reasoning line can tip at a near tie between a batch's and a single token's floating-point
+    result, so no chain-of-thought answer is compared here.)"""
     gen = ConditionGenerator(embedded_backend)
     requests = [
         ChatRequest(gen.messages("state", parse_task("move bowl into top drawer")), stop=("\n\n",)),
-        ChatRequest(gen.messages("spatial", parse_task("tilt cup"), exclude=["tilt"]), stop=("\n\n",)),
+        ChatRequest(gen.messages("spatial", parse_task("tilt cup")), stop=("\n\n",)),
         _small_request("lime"),
     ]
     for request in requests:
@@ -481,7 +483,7 @@ def test_embedded_drafts_keep_the_greedy_answer(embedded_backend, monkeypatch):
         drafted = embedded_backend.accepted
         with_drafts = embedded_backend.chat(request)
         assert with_drafts.completion_tokens <= request.sampling.max_tokens
-        if request is requests[0]:
+        if request is not requests[-1]:
             assert embedded_backend.accepted - drafted >= with_drafts.completion_tokens - 2
         monkeypatch.setattr(embedded_backend, "draft", False)
         embedded_backend.forget()
