@@ -9,7 +9,7 @@ EXTRAS ?= all,server,dev
 $(VENV)/.installed: pyproject.toml
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/pip install --quiet --upgrade pip
-	@echo "Installing taskcond[$(EXTRAS)] (the first time, llama-cpp-python compiles for ~11 min on 2 cores)"
+	@echo "Installing taskcond[$(EXTRAS)] (the first time, llama-cpp-python compiles: about 5 min on 2 cores)"
 	$(BIN)/pip install --progress-bar off -e ".[$(EXTRAS)]"
 	touch $@
 
