@@ -80,15 +80,21 @@ class GroundTruth:
         anything else."""
         if name == "cloth" and self.scene.cloth is not None:
             return self.scene.cloth_nodes().mean(axis=0)
-        known = self.known
-        if known is not None and name in self._free_index:
-            return np.array(known.bases[self._free_index[name]][0])
+        point = self._known_com(name)
+        if point is not None:
+            return np.array(point)
         if name in self.scene.free_objects:
             return np.array(
                 p.getBasePositionAndOrientation(self.scene.bodies[name], physicsClientId=self.scene.client)[0]
             )
         lo, hi = self.scene.aabb(name)
         return (lo + hi) / 2
+
+    def _known_com(self, name: str) -> tuple[float, float, float] | None:
+        """The centre of mass (m, world) of free object ``name`` as :attr:`known` holds it; ``None`` for
+        anything else or without a known state."""
+        known, index = self.known, self._free_index.get(name)
+        return known.bases[index][0] if known is not None and index is not None else None
 
     def _fingers(self, gripper: str) -> tuple[int, tuple[int, int]]:
         """Arm body and finger links of the gripper named ``gripper``."""
@@ -182,10 +188,8 @@ class GroundTruth:
     def inside(self, a: str, b: str) -> bool:
         if b not in self.scene.interiors:
             return False
-        known = self.known
-        index = self._free_index.get(a)
-        point = known.bases[index][0] if known is not None and index is not None else self.com(a)
-        return self.scene.interior(b).contains(point, INSIDE_MARGIN)
+        point = self._known_com(a)
+        return self.scene.interior(b).contains(self.com(a) if point is None else point, INSIDE_MARGIN)
 
     def above(self, a: str, b: str) -> bool:
         alo, ahi = self.scene.aabb(a)
