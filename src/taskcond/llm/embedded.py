@@ -227,7 +227,7 @@ class EmbeddedBackend:
                 llm.eval(tokens[a:b])
                 if b == hint:
                     self._write_state(llm, tokens[:hint])
-        # the chat completion evaluates the last segment in one piece too; what it generates is not
+        # the last segment is evaluated by the caller, in one piece too; what it generates is not kept
         self._evaluated[slot] = len(tokens)
 
     def _state_path(self, tokens: Sequence[int]) -> Path:
@@ -378,8 +378,8 @@ class EmbeddedBackend:
                 cut = [text.index(s) for s in stops if s in text]
                 if cut:
                     return text[: min(cut)].decode("utf-8", errors="ignore"), len(answer)
-                if len(answer) >= request.sampling.max_tokens:
-                    return text.decode("utf-8", errors="ignore"), len(answer)
+                if len(answer) >= request.sampling.max_tokens or llm.n_tokens >= llm.n_ctx():
+                    return text.decode("utf-8", errors="ignore"), len(answer)  # or the context is full
             room = min(BATCH - 1, llm.n_ctx() - llm.n_tokens - 1)
             draft = self.lookup(seq, starts)[:room] if self.draft else []
             choice = self._decode(llm, [answer[-1], *draft], 0)
