@@ -153,7 +153,7 @@ class KitchenEnv(gym.Env):
         frame (position m + quaternion xyzw, world)."""
         self._poses_of: tuple[list[FramePose] | None, np.ndarray] = (None, np.zeros((0, 7)))
         """The free objects' centre-of-mass poses of the last observation and their base-link poses (n, 7)
-        (:meth:`_object_poses`), which the observation copies while the poses are unchanged."""
+        (:meth:`_object_poses`), which the observation copies while the poses compare equal."""
         self._fractions_of: tuple[list[tuple[float, ...]] | None, list[float]] = (None, [])
         """The container joint positions of the last reading and their open fractions."""
         self._tracked: tuple[int, ...] | None = None
@@ -372,8 +372,8 @@ class KitchenEnv(gym.Env):
 
     def _read(self) -> _Reading:
         """Read the Franka's joints, the free objects' poses, the container joints and the cloth's nodes
-        (one query each, one per articulated body). The open fractions are those of the previous reading
-        while the container joints are unchanged (they are a function of the joints alone)."""
+        (one query each, one per articulated body). While the container joints compare equal to the previous
+        reading's, its open fractions are reused (they are a function of the joints alone)."""
         scene, client = self.scene, self.scene.client
         containers = scene.container_joint_positions()
         if containers != self._fractions_of[0]:
