@@ -39,7 +39,7 @@ After every control step the soft-body anchors of the grippers on the cloth are 
 from __future__ import annotations
 
 import math
-from itertools import compress
+from itertools import compress, repeat
 from operator import itemgetter, ne, or_
 from typing import Any, ClassVar, NamedTuple
 
@@ -91,8 +91,8 @@ class _Reading(NamedTuple):
     """The simulator state read once after a control step, shared by the blow-up check and the observation.
 
     Attributes:
-        arm: positions (rad) of the Franka's :data:`~taskcond.sim.franka.ARM_JOINTS`.
-        fingers: positions (m) of its two :data:`~taskcond.sim.franka.FINGER_JOINTS`.
+        joints: positions of the Franka's :data:`~taskcond.sim.franka.ARM_JOINTS` (rad), then of its two
+            :data:`~taskcond.sim.franka.FINGER_JOINTS` (m).
         bases: centre-of-mass pose (position m, quaternion xyzw, world) of each free object, in the order of
             :attr:`KitchenEnv.object_names`, as ``p.getBasePositionAndOrientation`` reports it.
         containers: container joint positions (m or rad) per articulated body
@@ -102,8 +102,7 @@ class _Reading(NamedTuple):
         cloth_nodes: (n*n, 3) world node positions (m) of the cloth, or ``None`` without one.
     """
 
-    arm: list[float]
-    fingers: list[float]
+    joints: list[float]
     bases: list[FramePose]
     containers: list[tuple[float, ...]]
     open_fractions: list[float]
@@ -150,8 +149,13 @@ class KitchenEnv(gym.Env):
         self._com_to_base = [self.scene.com_to_base(body) for body in self._free_ids]
         """Per free object, its base-link frame in its centre-of-mass frame (the observation's poses)."""
         self._base_frames: list[tuple[FramePose, tuple[float, ...]] | None] = [None] * len(self._free_ids)
-        """Per free object, the last centre-of-mass pose :meth:`_obs` transformed and its base-link frame
-        (position m + quaternion xyzw, world)."""
+        """Per free object, the last centre-of-mass pose :meth:`_object_poses` transformed and its base-link
+        frame (position m + quaternion xyzw, world)."""
+        self._poses_of: tuple[list[FramePose] | None, np.ndarray] = (None, np.zeros((0, 7)))
+        """The free objects' centre-of-mass poses of the last observation and their base-link poses (n, 7)
+        (:meth:`_object_poses`), which the observation copies while the poses compare equal."""
+        self._fractions_of: tuple[list[tuple[float, ...]] | None, list[float]] = (None, [])
+        """The container joint positions of the last reading and their open fractions."""
         self._tracked: tuple[int, ...] | None = None
         """Bodies whose state :meth:`_moved_bodies` compares, in the order of :meth:`_body_states`: the
         Franka, the free objects, the articulated containers; ``None`` in a scene with the Kinova or the
@@ -368,17 +372,17 @@ class KitchenEnv(gym.Env):
 
     def _read(self) -> _Reading:
         """Read the Franka's joints, the free objects' poses, the container joints and the cloth's nodes
-        (one query each, one per articulated body)."""
+        (one query each, one per articulated body). While the container joints compare equal to the previous
+        reading's, its open fractions are reused (they are a function of the joints alone)."""
         scene, client = self.scene, self.scene.client
-        positions = list(map(_FIRST, p.getJointStates(self.robot.body, _ROBOT_JOINTS, client)))
-        base_pose = p.getBasePositionAndOrientation
         containers = scene.container_joint_positions()
+        if containers != self._fractions_of[0]:
+            self._fractions_of = (containers, scene.open_fractions(containers))
         return _Reading(
-            positions[:_ARM_DOFS],
-            positions[_ARM_DOFS:],
-            [base_pose(body, client) for body in self._free_ids],
+            list(map(_FIRST, p.getJointStates(self.robot.body, _ROBOT_JOINTS, client))),
+            list(map(p.getBasePositionAndOrientation, self._free_ids, repeat(client))),
             containers,
-            scene.open_fractions(containers),
+            self._fractions_of[1],
             scene.cloth_nodes() if scene.cloth is not None else None,
         )
 
@@ -387,23 +391,16 @@ class KitchenEnv(gym.Env):
         if reading is None:
             reading = self._read()
         ee_position, ee_orientation = self.robot.ee_frame()
-        flat: list[float] = []
-        frames = self._base_frames
-        # KitchenScene.base_frame of each object, its transform looked up once at construction; a function
-        # of the centre-of-mass pose alone, so an object that kept its pose keeps its frame
-        for k, (pose, (offset, rotation)) in enumerate(zip(reading.bases, self._com_to_base, strict=True)):
-            cached = frames[k]
-            if cached is None or cached[0] != pose:
-                position, orientation = p.multiplyTransforms(pose[0], pose[1], offset, rotation)
-                cached = frames[k] = (pose, position + orientation)
-            flat += cached[1]
-        fingers = reading.fingers
+        bases = reading.bases
+        if bases != self._poses_of[0]:
+            self._poses_of = (bases, np.array(self._object_poses(bases)).reshape(len(bases), 7))
+        joints = reading.joints
         obs = {
             "ee_position": np.array(ee_position),
             "ee_orientation": np.array(ee_orientation),
-            "gripper_width": np.array([fingers[0] + fingers[1]]),
-            "joint_positions": np.array(reading.arm),
-            "object_poses": np.array(flat).reshape(len(self._free_ids), 7),
+            "gripper_width": np.array([joints[_ARM_DOFS] + joints[_ARM_DOFS + 1]]),
+            "joint_positions": np.array(joints[:_ARM_DOFS]),
+            "object_poses": self._poses_of[1].copy(),
             "container_open": np.array(reading.open_fractions),
             "target": self.target.copy(),
         }
@@ -417,6 +414,21 @@ class KitchenEnv(gym.Env):
             obs["cloth_nodes"] = reading.cloth_nodes
         return obs
 
+    def _object_poses(self, bases: list[FramePose]) -> list[float]:
+        """Base-link pose (position m + quaternion xyzw, world) of each free object, concatenated, from the
+        centre-of-mass poses ``bases``: :meth:`~taskcond.sim.scene.KitchenScene.base_frame` with each
+        object's transform looked up once at construction. It is a function of the centre-of-mass pose
+        alone, so an object that kept its pose keeps its frame."""
+        flat: list[float] = []
+        frames = self._base_frames
+        for k, (pose, (offset, rotation)) in enumerate(zip(bases, self._com_to_base, strict=True)):
+            cached = frames[k]
+            if cached is None or cached[0] != pose:
+                position, orientation = p.multiplyTransforms(pose[0], pose[1], offset, rotation)
+                cached = frames[k] = (pose, position + orientation)
+            flat += cached[1]
+        return flat
+
     def _info(self, success: bool = False) -> dict[str, Any]:
         return {
             "success": success,
@@ -428,7 +440,7 @@ class KitchenEnv(gym.Env):
     def _body_states(self, reading: _Reading) -> list[Any]:
         """What places each body of :attr:`_tracked`, from ``reading``: the Franka's joint positions (its
         base is fixed), each free object's base pose, each articulated container's joint positions."""
-        return [reading.arm + reading.fingers, *reading.bases, *reading.containers]
+        return [reading.joints, *reading.bases, *reading.containers]
 
     def _moved_bodies(self, reading: _Reading) -> list[int] | None:
         """The bodies whose contacts the deep-penetration check must read after this control step, or
@@ -462,7 +474,7 @@ class KitchenEnv(gym.Env):
         :data:`PENETRATION`; the contacts of the bodies :meth:`_moved_bodies` names, all of them when it
         names none), checked in this order. The contact points read body by body are put in ``contacts``
         (body id → ``p.getContactPoints(bodyA=body)``) for the success check."""
-        if not all(map(math.isfinite, reading.arm)):
+        if not all(map(math.isfinite, reading.joints[:_ARM_DOFS])):
             return "nan_state"
         (x_lo, x_hi), (y_lo, y_hi), (z_lo, z_hi) = _WORKSPACE_BOUNDS
         for (x, y, z), _ in reading.bases:
