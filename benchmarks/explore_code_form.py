@@ -43,9 +43,8 @@ from taskcond.conditions import (
     ContainerState,
     GripperState,
     Predicate,
-    Relation,
-    SpatialRelation,
     TaskCondition,
+    parse_predicate,
 )
 from taskcond.examples import example_conditions, letter_example
 from taskcond.llm.base import ChatMessage, ChatRequest, Sampling
@@ -96,32 +95,35 @@ def function(pid: str) -> str:
     return signature(pid) + "\n".join(lines) + "\n\n\n"
 
 
+def condition_text(subject: str, method: str, arg: str) -> str:
+    """The vocabulary's string of one assert (the inverse of :func:`code_line`)."""
+    if method == "holding":
+        return f"{subject} not grasping" if arg == "None" else f"{subject} grasping {arg}"
+    if method in ("is_open", "is_closed"):
+        return f"{subject} {method.removeprefix('is_')}"
+    return f"{subject} {method.replace('_', ' ')} {arg}"
+
+
 def read_body(pid: str, body: str) -> TaskCondition:
     """The condition a function body states (objects as lower-case letters); raises ConditionError."""
-    names = {x.lower(): x.lower() for x in letters(pid)} | {GRIPPER: GRIPPER}
+    names = {x.lower() for x in letters(pid)} | {GRIPPER}
     pre: list[Predicate] = []
     post: list[Predicate] = []
     contacts: list[Collision] = []
     current = pre
-    try:
-        for line in (ln.strip() for ln in body.splitlines()):
-            if line.startswith("robot.") or line == "# after":
-                current = post
-            elif m := ASSERT.fullmatch(line):
-                subject, method, arg = m.groups()
-                if method == "holding":
-                    current.append(GripperState(None if arg == "None" else names[arg]))
-                elif method in ("is_open", "is_closed"):
-                    current.append(ContainerState(names[subject], method == "is_open"))
-                else:
-                    current.append(
-                        SpatialRelation(names[subject], Relation(method.replace("_", " ")), names[arg])
-                    )
-            elif line.startswith("return"):
-                contacts = [Collision(names[a], names[b]) for a, b in CONTACT.findall(line)]
-                break
-    except (KeyError, ValueError) as exc:
-        raise ConditionError(f"unreadable line {line!r}") from exc
+    for line in (ln.strip() for ln in body.splitlines()):
+        if line.startswith("robot.") or line == "# after":
+            current = post
+        elif m := ASSERT.fullmatch(line):
+            if not {m[1], m[3]} <= names | {"", "None"}:
+                raise ConditionError(f"unreadable line {line!r}: it names objects not in the task")
+            current.append(parse_predicate(condition_text(*m.groups())))
+        elif line.startswith("return"):
+            pairs = CONTACT.findall(line)
+            if not {x for pair in pairs for x in pair} <= names:
+                raise ConditionError(f"unreadable line {line!r}: it names objects not in the task")
+            contacts = [Collision(a, b) for a, b in pairs]
+            break
     objects = (*(x.lower() for x in letters(pid)), GRIPPER)
     return TaskCondition("", objects, tuple(pre), tuple(post), tuple(contacts))
 
@@ -156,6 +158,10 @@ def main() -> None:
         "--chat", action="store_true", help="ask through the chat backend instead of raw completion"
     )
     args = ap.parse_args()
+    if args.orders < 1 or not 0 <= args.vote <= args.orders:
+        ap.error(
+            f"need --orders >= 1 and 0 <= --vote <= --orders; got --orders {args.orders} --vote {args.vote}"
+        )
     if args.chat:
         backend = EmbeddedBackend()
 
@@ -194,11 +200,15 @@ def main() -> None:
             except ConditionError:
                 conds.append(None)
         right = [c is not None and c.matches(reference) for c in conds]
-        groups = [conds[i : i + args.vote] for i in range(0, len(conds) - args.vote + 1, args.vote or 1)]
-        voted = sum(majority(g).matches(reference) for g in groups) if args.vote else 0
+        groups = (
+            [conds[i : i + args.vote] for i in range(0, len(conds) - args.vote + 1, args.vote)]
+            if args.vote
+            else []
+        )
+        voted = sum(majority(g).matches(reference) for g in groups)
         total += sum(right)
         voted_total += voted
-        votes += len(groups) if args.vote else 0
+        votes += len(groups)
         wrong = ", ".join(str(i) for i, ok in enumerate(right) if not ok) or "-"
         vote_cell = f"{voted}/{len(groups)}" if args.vote else "-"
         print(f"| {pid} | {sum(right)}/{args.orders} | {wrong} | {vote_cell} |", flush=True)

@@ -14,11 +14,12 @@ The expected answer of each question is read from the example condition. Answers
 from __future__ import annotations
 
 import argparse
+import sys
 from dataclasses import dataclass
 
 from taskcond.conditions import ContainerState, GripperState, TaskCondition
 from taskcond.examples import example_conditions
-from taskcond.llm.base import ChatBackend, ChatMessage, ChatRequest, Sampling
+from taskcond.llm.base import ChatBackend, ChatMessage, ChatRequest, LLMError, Sampling
 from taskcond.llm.config import LLMConfig, make_backend
 from taskcond.primitives import parse_task
 
@@ -67,13 +68,22 @@ def ask(backend: ChatBackend, question: Question) -> bool | None:
     return {"yes": True, "no": False}.get(answer)
 
 
-def main() -> None:
+def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument(
         "--llm", default=None, help="backend spec as for taskcond --llm (default: the configured backend)"
     )
     args = ap.parse_args()
-    backend = make_backend(LLMConfig.load(args.llm))
+    try:
+        probe(make_backend(LLMConfig.load(args.llm)))
+    except LLMError as exc:  # the rows printed so far stand; answers already given are in the response cache
+        print(f"probe_llm: {exc}", file=sys.stderr)
+        return 1
+    return 0
+
+
+def probe(backend: ChatBackend) -> None:
+    """Ask every question and print a markdown table row per primitive, then the totals."""
     print(f"backend {backend.name}, model {backend.model}\n")
     print("| primitive | right | wrong answers (question: model's answer) |")
     print("|---|---|---|")
@@ -97,4 +107,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    raise SystemExit(main())
