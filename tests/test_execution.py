@@ -18,8 +18,8 @@ from taskcond.conditions import (
     TaskCondition,
 )
 from taskcond.dmp import rollout
+from taskcond.execution.collisions import Landing, allowed_for_arms, landings
 from taskcond.execution.decompose import DecompositionError, parse_plan
-from taskcond.execution.executor import Landing, allowed_for_arms, landings
 from taskcond.execution.skills import (
     HALF_TURN,
     Demonstration,

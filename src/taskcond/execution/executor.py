@@ -18,35 +18,25 @@ With conditions, every primitive is performed as
    a depth bound and the time budget;
 2. *control with conditions* (Alg. 2, :meth:`Executor.control`): DMP rollouts towards the goal from the
    environment information; after every control step the contacts are compared with the condition's
-   allowed collisions, and an unallowed one backs the rollout up :attr:`ExecutionConfig.backup_points`
-   points and moves the goal by ``goalPos − collision position`` (Alg. 2 lines 9–12), goalPos being the
-   target object's centre as in Alg. 2 line 3 (the end effector's goal is offset from it by the
-   demonstrated grasp, which would turn the shift sideways), or the arm's goal for a piece without a
-   target. We keep the horizontal part only and bound it by :attr:`ExecutionConfig.max_goal_shift` (the
-   paper moves the goal in 3-D without bound): a contact at a container's rim below the goal would
-   otherwise lift the goal out of the container the object is being lowered into. A pair of bodies
-   adjusts the goal once per rollout: a contact away from the goal (a rim crossed on the way) recurs
-   after every back-up, and moving the goal again each time would carry it away. A contact that a
-   post-condition implies is not a collision either (:func:`landings`): ``bowl inside bottom drawer``
-   ends with the bowl standing on the drawer's floor, ``mug above table`` with the mug on the table's
-   top, so the held object's contact with that reference in its lower half (inside) or upper half
-   (above) is the object arriving, while its contact with a rim (the box's upper half) is still one.
-   Nor is a gripper's contact with a container that it, or the object it holds, is inside when the
-   primitive starts (releasing the toothpaste in the mug opens the fingers against the mug's wall): it
-   can only leave that container, and moving the goal towards the wall would squeeze what it has just
-   let go.
-   A condition speaks of *the* gripper; a skill that moves several arms together (the dual-arm fold)
-   allows each collision of ``gripper`` for each of its arms' grippers (:func:`allowed_for_arms`:
-   ``gripper and cloth`` lets the Kinova's gripper hold the cloth's other corner).
-   Spatial relations of the gripper itself (``gripper in front of box``) are left to the motion: no
-   primitive achieves them on their own;
-3. the post-conditions are checked; if some of its *effects* do not hold (post-conditions that are not
-   also pre-conditions, and not relations of the gripper itself, which no primitive achieves alone), the
-   primitive is tried again; a condition kept from the pre-conditions that broke once the effects were
-   achieved (the bottle slipped when already inside the box) is only reported. Tries go on (satisfaction
-   and control) while attempts and time remain, as Alg. 2 runs "until all post-conditions
-   are met or the time exceeds" its budget. A primitive that ends without its post-conditions is
-   reported, not fatal: the next one runs, and the task's own success check decides.
+   allowed collisions (:class:`~taskcond.execution.collisions.CollisionMonitor`, which also says what
+   counts as allowed beyond the condition's own pairs), and an unallowed one backs the rollout up
+   :attr:`ExecutionConfig.backup_points` points and moves the goal by ``goalPos − collision position``
+   (Alg. 2 lines 10–13), goalPos being the target object's centre as in Alg. 2 line 4 (the end effector's
+   goal is offset from it by the demonstrated grasp, which would turn the shift sideways), or the arm's
+   goal for a piece without a target. We keep the horizontal part only and bound it by
+   :attr:`ExecutionConfig.max_goal_shift` (the paper moves the goal in 3-D without bound): a contact at a
+   container's rim below the goal would otherwise lift the goal out of the container the object is being
+   lowered into. Spatial relations of the gripper itself (``gripper in front of box``) are left to the
+   motion: no primitive achieves them on their own;
+3. the post-conditions are checked (:meth:`Executor.perform`); if some of its *effects* do not hold
+   (post-conditions that are not also pre-conditions, and not relations of the gripper itself, which no
+   primitive achieves alone), the primitive is tried again; a condition kept from the pre-conditions that
+   broke once the effects were achieved (the bottle slipped when already inside the box) is only
+   reported. Tries go on (satisfaction and control) while attempts and time remain, as Alg. 2 runs "until
+   all post-conditions are met or the time exceeds" its budget. A primitive that ends without its
+   post-conditions is reported, not fatal: the next one runs, and the task's own success check decides.
+
+Line numbers of Alg. 1 and Alg. 2 count each listing's ``Function`` line as line 1.
 
 Time is the world's clock (simulated seconds in the suite), so runs are repeatable; the paper's 60 s
 runtime budget applies per top-level primitive including everything it raises.
@@ -61,24 +51,23 @@ from __future__ import annotations
 import dataclasses
 import math
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
-from typing import Any, Literal, Protocol
+from dataclasses import dataclass
+from typing import Literal, Protocol
 
 import numpy as np
 
 from taskcond.conditions import (
-    GRIPPER,
-    Collision,
     ContainerState,
     GripperState,
     Predicate,
-    Relation,
     SpatialRelation,
     TaskCondition,
     is_gripper,
 )
 from taskcond.dmp import DMPParameters, DMPRollout
-from taskcond.execution.skills import Segment, SkillError, SkillLibrary, target_object
+from taskcond.execution.collisions import CollisionMonitor
+from taskcond.execution.events import Event, EventLog, fmt_items, fmt_vector
+from taskcond.execution.skills import Segment, Skill, SkillError, SkillLibrary, target_object
 from taskcond.execution.world import Observation, Touch, World
 from taskcond.primitives import TaskNameError, parse_task, task_for_condition
 
@@ -137,41 +126,6 @@ class ExecutionConfig:
     speed_limit: float = 0.25
 
 
-@dataclass(frozen=True)
-class Event:
-    """One thing that happened during execution, for the console and the JSON trace.
-
-    Attributes:
-        time: world time, s.
-        kind: ``step`` (a top-level primitive starts), ``condition``, ``ignored`` (condition parts that
-            cannot apply here), ``skip`` (post-conditions already hold), ``raise`` (Alg. 1 raises a
-            primitive for an unmet pre-condition), ``primitive`` (a primitive's DMPs start),
-            ``collision`` (unallowed, adjusted), ``post`` (post-conditions met), ``post_missing``,
-            ``failure``.
-        task: the primitive task concerned.
-        depth: recursion depth (0 = a step of the long-horizon task).
-        message: human-readable line.
-        data: JSON-ready details.
-    """
-
-    time: float
-    kind: str
-    task: str
-    depth: int
-    message: str
-    data: dict[str, Any] = field(default_factory=dict)
-
-    def to_dict(self) -> dict[str, Any]:
-        return {
-            "time": round(self.time, 3),
-            "kind": self.kind,
-            "task": self.task,
-            "depth": self.depth,
-            "message": self.message,
-            **self.data,
-        }
-
-
 @dataclass
 class ExecutionResult:
     """Outcome of :meth:`Executor.run`.
@@ -193,6 +147,29 @@ class ExecutionResult:
     conditions: dict[str, TaskCondition]
     adjustments: int
     raised: int
+
+
+@dataclass(frozen=True)
+class Aim:
+    """What one execution of a primitive runs, and towards what (Alg. 2 lines 3–4).
+
+    Attributes:
+        task: the primitive task.
+        skill: its DMP skill, looked up for the current end-effector pose relative to the target.
+        target_name: the object whose centre is goalPos (or ``"position"``); None for a primitive without a
+            target, whose pieces move by their demonstrated offsets.
+        target: (3,) the target's perceived centre, m, world frame; None without a target.
+    """
+
+    task: str
+    skill: Skill
+    target_name: str | None
+    target: np.ndarray | None
+
+    @property
+    def arms(self) -> int:
+        """Number of arms k the skill moves together."""
+        return self.skill.arms
 
 
 class Executor:
@@ -225,110 +202,80 @@ class Executor:
         self.method = method
         self.source = source
         self.config = config or ExecutionConfig()
-        self.on_event = on_event
-        self.events: list[Event] = []
+        self.log = EventLog(lambda: self.world.time, on_event)
         self.conditions: dict[str, TaskCondition] = {}
         self.adjustments = 0
         self.raised = 0
 
     # ------------------------------------------------------------------------------------------- API
     def run(self, task_names: Sequence[str]) -> ExecutionResult:
-        """Perform the primitive tasks in order (a long-horizon task as the paper runs it)."""
+        """Perform the primitive tasks in order (a long-horizon task as the paper runs it), each top-level
+        primitive within its own :attr:`ExecutionConfig.budget`."""
         try:
             for name in task_names:
                 task = self._parse(name)
-                self._emit("step", task, 0, f"step: {task}")
+                self.log.step(task)
                 deadline = self.world.time + self.config.budget
                 if self.method == "none":
                     self.control(task, None, 0, deadline)
                 else:
                     self.perform(task, (), 0, deadline)
         except ExecutionError as exc:
-            self._emit("failure", "", 0, f"stopped: {exc}", {"reason": str(exc), "failure_kind": exc.kind})
+            self.log.failure(str(exc), exc.kind)
             return self._result(False, str(exc), exc.kind)
         return self._result(True, None, None)
 
     def condition(self, task: str, depth: int) -> TaskCondition:
-        """The task condition of ``task`` from the source (cached for the run)."""
+        """Alg. 1 line 7 (GenCond): the task condition of ``task`` from the source, without what cannot
+        apply here (:meth:`_applicable`); cached for the run."""
         if task not in self.conditions:
             assert self.source is not None
             try:
                 cond = self.source.condition(task)
             except (ValueError, RuntimeError, OSError) as exc:
                 raise ExecutionError(f"no condition for {task!r}: {exc}", "condition") from exc
-            cond = self._applicable(cond, task, depth)
-            self.conditions[task] = cond
-            self._emit(
-                "condition",
-                task,
-                depth,
-                f"condition ({self.source.name}): pre [{_join(cond.pre_conditions)}] post "
-                f"[{_join(cond.post_conditions)}] collisions [{_join(cond.collisions)}]",
-                {"condition": cond.to_dict()},
-            )
+            self.conditions[task] = cond = self._applicable(cond, task, depth)
+            self.log.condition(task, depth, self.source.name, cond)
         return self.conditions[task]
 
+    # ----------------------------------------------------------------------------------------- Alg. 1
     def perform(self, task: str, stack: tuple[str, ...], depth: int, deadline: float) -> None:
-        """Satisfy the pre-conditions of ``task`` (Alg. 1), execute it (Alg. 2) and check its
-        post-conditions, trying again while they do not hold."""
+        """One primitive task with its condition: SatisfyPreCond, then ControlWithCond (Alg. 1 lines 8–9),
+        again while its effects do not hold (Alg. 2 runs until the post-conditions are met; module doc,
+        step 3). An idempotent primitive whose post-conditions already hold is skipped.
+
+        Args:
+            task: the primitive task name.
+            stack: the tasks whose pre-conditions raised this one, outermost first.
+            depth: recursion depth (0 = a step of the long-horizon task).
+            deadline: world time, s, at which the top-level primitive's budget ends.
+        """
         cond = self.condition(task, depth)
         missing: list[Predicate] = []
         for attempt in range(self.config.max_attempts):
             obs = self.world.observe()
-            idempotent = parse_task(task).primitive.id in IDEMPOTENT
-            if (
-                attempt == 0
-                and idempotent
-                and cond.post_conditions
-                and not _missing(cond.post_conditions, obs)
-            ):
-                self._emit("skip", task, depth, f"{task}: post-conditions already hold, skipped")
+            if attempt == 0 and _done_already(task, cond, obs):
+                self.log.skip(task, depth)
                 return
             if attempt > 0 and (undo := _undoing(cond, obs)):
-                self._emit(
-                    "post_missing",
-                    task,
-                    depth,
-                    f"{task}: not tried again, its pre-condition '{undo[0]}' would undo '{undo[1]}'",
-                    {"missing": [str(m) for m in missing], "attempt": attempt, "final": True},
-                )
+                self.log.not_retried(task, depth, undo, missing, attempt)
                 return
             self.satisfy(cond, (*stack, task), depth, deadline)
             self.control(task, cond, depth, deadline)
             missing = _missing(cond.post_conditions, self.world.observe())
-            effects = [
-                q
-                for q in cond.post_conditions
-                if q not in cond.pre_conditions and not _about_gripper_place(q)
-            ]
-            if not any(m in effects for m in missing) and (effects or not missing):
-                note = (
-                    f" (but not {_join(missing)}: kept from the pre-conditions or the gripper's own place, "
-                    "not tried again)"
-                    if missing
-                    else ""
-                )
-                self._emit("post", task, depth, f"{task}: post-conditions met{note}")
+            if _achieved(cond, missing):
+                self.log.post(task, depth, missing)
                 return
             if self.world.time > deadline:
                 break
-            self._emit(
-                "post_missing",
-                task,
-                depth,
-                f"{task}: post-conditions not met: {_join(missing)}; trying again",
-                {"missing": [str(m) for m in missing], "attempt": attempt + 1},
-            )
-        self._emit(
-            "post_missing",
-            task,
-            depth,
-            f"{task}: post-conditions not met after {attempt + 1} attempt(s): {_join(missing)}; going on",
-            {"missing": [str(m) for m in missing], "attempt": attempt + 1, "final": True},
-        )
+            self.log.retry(task, depth, missing, attempt + 1)
+        self.log.gave_up(task, depth, missing, attempt + 1)
 
     def satisfy(self, cond: TaskCondition, stack: tuple[str, ...], depth: int, deadline: float) -> None:
-        """Alg. 1: achieve every pre-condition of ``cond`` that does not hold now.
+        """Alg. 1 (SatisfyPreCond): compare the pre-conditions of ``cond`` with the environment information
+        (lines 2–5), raise the primitive that achieves the first unmet one (line 6, :meth:`_cond2task`) and
+        perform it recursively (lines 7–9, :meth:`perform`), until all hold at once; the budget is checked
+        as in lines 11–12. Relations of the gripper itself are left to Alg. 2 (:func:`_about_gripper_place`).
 
         Raises:
             ExecutionError: a pre-condition that no primitive achieves, a cycle, too deep a recursion, the
@@ -342,189 +289,157 @@ class Executor:
                 return
             if self.world.time > deadline:
                 raise ExecutionError(
-                    f"time budget of {self.config.budget:.0f} s spent satisfying {_join(missing)} "
+                    f"time budget of {self.config.budget:.0f} s spent satisfying {fmt_items(missing)} "
                     f"for {stack[-1]!r}",
                     "timeout",
                 )
-            pre = missing[0]
-            new = task_for_condition(pre, obs.grasped(_gripper_of(pre)))
-            if new is None:
-                raise ExecutionError(
-                    f"no primitive achieves the pre-condition '{pre}' of {stack[-1]!r}", "unsatisfiable"
-                )
-            new = self._parse(new)
-            if new in stack:
-                chain = " -> ".join((*stack, new))
-                raise ExecutionError(f"cycle while satisfying '{pre}': {chain}", "cycle")
-            if depth + 1 > self.config.max_depth:
-                raise ExecutionError(
-                    f"recursion deeper than {self.config.max_depth} satisfying '{pre}'", "unsatisfiable"
-                )
+            new = self._cond2task(missing[0], obs, stack, depth)
             self.raised += 1
-            self._emit(
-                "raise",
-                new,
-                depth + 1,
-                f"pre-condition '{pre}' of {stack[-1]!r} unmet: raising {new!r}",
-                {"pre_condition": str(pre), "for": stack[-1]},
-            )
+            self.log.raised(new, depth + 1, missing[0], stack[-1])
             self.perform(new, stack, depth + 1, deadline)
         still = _missing(pres, self.world.observe())
         if still:
-            raise ExecutionError(f"could not satisfy {_join(still)} for {stack[-1]!r}", "unsatisfiable")
+            raise ExecutionError(f"could not satisfy {fmt_items(still)} for {stack[-1]!r}", "unsatisfiable")
 
+    def _cond2task(self, pre: Predicate, obs: Observation, stack: tuple[str, ...], depth: int) -> str:
+        """Alg. 1 line 6 (Cond2Task, :func:`taskcond.primitives.task_for_condition`): the primitive task
+        that achieves the unmet pre-condition ``pre`` of ``stack[-1]``.
+
+        Raises:
+            ExecutionError: no primitive achieves ``pre``, the task is already on ``stack`` (a cycle), or it
+                would be deeper than :attr:`ExecutionConfig.max_depth`.
+        """
+        new = task_for_condition(pre, obs.grasped(_gripper_of(pre)))
+        if new is None:
+            raise ExecutionError(
+                f"no primitive achieves the pre-condition '{pre}' of {stack[-1]!r}", "unsatisfiable"
+            )
+        new = self._parse(new)
+        if new in stack:
+            chain = " -> ".join((*stack, new))
+            raise ExecutionError(f"cycle while satisfying '{pre}': {chain}", "cycle")
+        if depth + 1 > self.config.max_depth:
+            raise ExecutionError(
+                f"recursion deeper than {self.config.max_depth} satisfying '{pre}'", "unsatisfiable"
+            )
+        return new
+
+    # ----------------------------------------------------------------------------------------- Alg. 2
     def control(self, task: str, cond: TaskCondition | None, depth: int, deadline: float) -> None:
-        """Alg. 2: roll out the skill's DMPs towards goals from the environment information; with a
-        condition, back up and move the goal on every unallowed collision."""
-        world, cfg = self.world, self.config
-        obs = world.observe()
+        """Alg. 2 (ControlWithCond): the allowed collisions of ``cond`` (line 2, a
+        :class:`~taskcond.execution.collisions.CollisionMonitor`), the goal from the environment
+        information (lines 3–4, :meth:`_aim`), then each DMP piece of the skill in turn (lines 5–15,
+        :meth:`_follow`); the last command is held :attr:`ExecutionConfig.settle_steps` steps. Without a
+        condition (method ``none``) the pieces just run."""
+        obs = self.world.observe()
+        aim = self._aim(task, obs)
+        monitor = None if cond is None else CollisionMonitor.start(cond, obs, self.world.arms[: aim.arms])
+        self.log.primitive(task, depth, aim.skill, aim.target_name, aim.target)
+        adjustments = 0
+        for seg in aim.skill.segments:
+            if self.world.time > deadline:
+                raise ExecutionError(
+                    f"{task!r} ran past its time budget of {self.config.budget:.0f} s", "timeout"
+                )
+            adjustments += self._follow(seg, aim, monitor, depth, self.config.max_adjustments - adjustments)
+        for _ in range(self.config.settle_steps):
+            self._step(*self._last)
+
+    def _aim(self, task: str, obs: Observation) -> Aim:
+        """Alg. 2 lines 3–4: the target's perceived centre in ``obs`` (targetPos, the goalPos of a primitive
+        with a target) and the skill for the end effector's pose relative to it.
+
+        Raises:
+            ExecutionError: the target is not perceived, no skill fits, or the skill moves more arms than
+                the robot has.
+        """
         target_name = target_object(task)
-        target = world.locate(target_name, obs) if target_name is not None else None
+        target = self.world.locate(target_name, obs) if target_name is not None else None
         if target_name is not None and target is None:
             raise ExecutionError(
                 f"{target_name!r} is not perceived; cannot aim {task!r} at it", "not_perceived"
             )
-        here, here_q = world.ee_pose()
+        here, here_q = self.world.ee_pose()
         try:
             skill = self.library.lookup(task, here - target if target is not None else here, here_q)
         except SkillError as exc:
             raise ExecutionError(str(exc), "no_skill") from None
-        arms = skill.arms
-        if arms > len(world.arms):
+        if skill.arms > len(self.world.arms):
             raise ExecutionError(
-                f"skill {skill.task_id} of {task!r} moves {arms} arms; this robot has {len(world.arms)}",
+                f"skill {skill.task_id} of {task!r} moves {skill.arms} arms; this robot has "
+                f"{len(self.world.arms)}",
                 "no_skill",
             )
-        checked = {o for g in world.arms[:arms] if (o := obs.grasped(g)) is not None}
-        baseline = {t.collision for t in obs.touches}
-        allowed = allowed_for_arms(cond.collisions, world.arms[:arms]) if cond is not None else set()
-        allowed |= {
-            Collision(g, q.reference)
-            for q in obs.predicates
-            if isinstance(q, SpatialRelation) and q.relation == Relation.INSIDE
-            for g in world.arms[:arms]
-            if q.subject in (g, obs.grasped(g))
-        }
-        arrivals = landings(cond, obs) if cond is not None else {}
-        self._emit(
-            "primitive",
-            task,
-            depth,
-            f"{task}: skill {skill.task_id} ({len(skill.segments)} DMP pieces)"
-            + (f", goal from {target_name} at {_fmt(target)}" if target is not None else ""),
-            {"skill": skill.task_id, "target": target_name, "target_center": _list(target)},
-        )
-        adjustments = 0
-        for seg in skill.segments:
-            if world.time > deadline:
-                raise ExecutionError(f"{task!r} ran past its time budget of {cfg.budget:.0f} s", "timeout")
-            start, start_q = world.ee_pose(arms)
-            goal = seg.goal(start, target)
-            reason = world.reach_error(goal)
-            if reason is not None:
-                raise ExecutionError(
-                    f"goal {_fmt(goal)} of {task!r} is out of reach: {reason}", "unreachable"
-                )
-            tau = self._duration(seg, start, goal)
-            params = _conditioned(seg, start, goal)
-            rollout = DMPRollout(params, start, goal, tau=tau, history=cfg.backup_points)
-            n = max(1, math.ceil(tau / world.dt - 1e-9))
-            orientations = seg.orientation(np.arange(n + 1) / n, start_q)
-            k = 0
-            while k < n:
-                position, _ = rollout.step(world.dt)
-                k += 1
-                self._step(position, orientations[k], seg.gripper)
-                if cond is None or adjustments >= cfg.max_adjustments:
-                    continue
-                touch = self._unallowed(world.touches(), checked, seg, baseline, allowed, arrivals)
-                if touch is None:
-                    continue
-                back = min(cfg.backup_points, k, rollout.kept)
-                if back < 1:
-                    continue
-                state = rollout.back_up(back)
-                k -= back
-                shift = self._goal_shift(touch, goal, target, target_name, checked)
-                goal = goal + np.tile(shift, arms)
-                rollout.set_goal(goal)
-                baseline.add(touch.collision)
-                adjustments += 1
-                self.adjustments += 1
-                self._emit(
-                    "collision",
-                    task,
-                    depth,
-                    f"{task}: unallowed collision {touch.a} / {touch.b} at {_fmt(touch.position)}: backed up "
-                    f"{back} points, goal moved by {_fmt(shift)} to {_fmt(goal)}",
-                    {
-                        "collision": [touch.a, touch.b],
-                        "position": _list(touch.position),
-                        "goal": _list(goal),
-                        "shift": _list(shift),
-                    },
-                )
-                for _ in range(max(1, back // 3)):
-                    self._step(state.position, orientations[k], seg.gripper)
-        for _ in range(cfg.settle_steps):
-            self._step(*self._last)
+        return Aim(task, skill, target_name, target)
 
-    # --------------------------------------------------------------------------------------- helpers
-    def _applicable(self, cond: TaskCondition, task: str, depth: int) -> TaskCondition:
-        """``cond`` without the container states of objects that have no such state here (``cloth closed``:
-        no primitive can achieve it and no observation can show it), unless they hold now (an open-top mug
-        is ``open``). Generated conditions are expected to contain such slips; each dropped one is
-        reported."""
-        obs = self.world.observe()
+    def _follow(
+        self, seg: Segment, aim: Aim, monitor: CollisionMonitor | None, depth: int, adjustable: int
+    ) -> int:
+        """Alg. 2 lines 5–15 for one DMP piece: GenDMP towards the piece's goal (line 5, :meth:`_gen_dmp`),
+        one control step per trajectory point (line 7), and after each step the contacts checked (lines
+        8–9); an unallowed collision, at most ``adjustable`` times, backs up and moves the goal (lines
+        10–13, :meth:`_adjust`). Returns the number of adjustments made.
 
-        def keep(pred: Predicate) -> bool:
-            if not isinstance(pred, ContainerState) or obs.holds(pred):
-                return True
-            return self.world.affords("close" if pred.is_open else "open", (pred.container,)) is None
-
-        pre = tuple(p for p in cond.pre_conditions if keep(p))
-        post = tuple(p for p in cond.post_conditions if keep(p))
-        dropped = [p for p in (*cond.pre_conditions, *cond.post_conditions) if not keep(p)]
-        if not dropped:
-            return cond
-        self._emit(
-            "ignored",
-            task,
-            depth,
-            f"{task}: ignoring {_join(dropped)} (no such state here)",
-            {"ignored": [str(p) for p in dropped]},
-        )
-        return dataclasses.replace(cond, pre_conditions=pre, post_conditions=post)
-
-    def _parse(self, name: str) -> str:
-        try:
-            task = parse_task(name)
-        except TaskNameError as exc:
-            raise ExecutionError(str(exc), "bad_task") from None
-        reason = self.world.affords(task.primitive.id, task.objects)
+        Raises:
+            ExecutionError: the piece's goal is out of reach, or the simulation fails.
+        """
+        start, start_q = self.world.ee_pose(aim.arms)
+        goal = seg.goal(start, aim.target)
+        reason = self.world.reach_error(goal)
         if reason is not None:
-            raise ExecutionError(f"cannot {task.name!r}: {reason}", "bad_task")
-        return task.name
+            raise ExecutionError(
+                f"goal {fmt_vector(goal)} of {aim.task!r} is out of reach: {reason}", "unreachable"
+            )
+        rollout = self._gen_dmp(seg, start, goal)
+        n = max(1, math.ceil(rollout.tau / self.world.dt - 1e-9))
+        orientations = seg.orientation(np.arange(n + 1) / n, start_q)
+        k = made = 0
+        while k < n:
+            position, _ = rollout.step(self.world.dt)
+            k += 1
+            self._step(position, orientations[k], seg.gripper)
+            if monitor is None or made >= adjustable:
+                continue
+            touch = monitor.unallowed(self.world.touches(), closed=seg.gripper >= 0.5)
+            back = min(self.config.backup_points, k, rollout.kept)
+            if touch is None or back < 1:
+                continue
+            k -= back
+            back_to = self._adjust(rollout, back, touch, aim, monitor, depth)
+            made += 1
+            for _ in range(max(1, back // 3)):
+                self._step(back_to, orientations[k], seg.gripper)
+        return made
 
-    def _duration(self, seg: Segment, start: np.ndarray, goal: np.ndarray) -> float:
-        if seg.anchor != "target":
-            return seg.duration
-        demo = float(np.linalg.norm(seg.dmp.goal - seg.dmp.y0))
-        new = float(np.linalg.norm(goal - start))
-        speed = min(self.config.speed_limit, demo / seg.duration) if demo > 1e-6 else self.config.speed_limit
-        return max(seg.duration, new / max(speed, 1e-3))
+    def _gen_dmp(self, seg: Segment, start: np.ndarray, goal: np.ndarray) -> DMPRollout:
+        """Alg. 2 line 5 (GenDMP): the piece's rollout from ``start`` to ``goal`` ((3k,) m, world frame),
+        slowed for a longer approach than demonstrated (:meth:`_duration`), its forcing term never mirrored
+        or blown up (:func:`_conditioned`), keeping the past points line 10 backs up to."""
+        tau = self._duration(seg, start, goal)
+        return DMPRollout(
+            _conditioned(seg, start, goal), start, goal, tau=tau, history=self.config.backup_points
+        )
 
-    def _goal_shift(
-        self,
-        touch: Touch,
-        goal: np.ndarray,
-        target: np.ndarray | None,
-        target_name: str | None,
-        held: set[str],
+    def _adjust(
+        self, rollout: DMPRollout, back: int, touch: Touch, aim: Aim, monitor: CollisionMonitor, depth: int
     ) -> np.ndarray:
-        """Alg. 2 line 11's goal change (3,) for a collision at ``touch``: ``goalPos − collPos`` with the
-        paper's goalPos, the target object's centre (line 3) for a primitive with a target, else the goal
-        of the arm involved (the first arm's if none is), horizontal only and at most
+        """Alg. 2 lines 10–13 after the unallowed collision ``touch``: back the rollout up ``back`` points
+        (line 10), move the goal by :meth:`_goal_shift` (lines 11–12) and go on towards the new goal (line
+        13). Returns the position ((3k,) m) backed up to, which the caller steps back to."""
+        goal = rollout.goal
+        state = rollout.back_up(back)
+        shift = self._goal_shift(touch, goal, aim, monitor.held)
+        goal = goal + np.tile(shift, aim.arms)
+        rollout.set_goal(goal)
+        monitor.adjusted(touch)
+        self.adjustments += 1
+        self.log.collision(aim.task, depth, touch, back, shift, goal)
+        return state.position
+
+    def _goal_shift(self, touch: Touch, goal: np.ndarray, aim: Aim, held: set[str]) -> np.ndarray:
+        """Alg. 2 line 12's goal change (3,) for a collision at ``touch``: ``goalPos − collPos`` with the
+        paper's goalPos, the target object's centre (line 4) for a primitive with a target, else the goal
+        ``goal`` ((3k,) m) of the arm involved (the first arm's if none is), horizontal only and at most
         :attr:`ExecutionConfig.max_goal_shift` long (module doc).
 
         A collision with the target itself while carrying an object (the toothpaste, or the hand holding
@@ -533,8 +448,9 @@ class Executor:
         carried object over the target's centre; ``goalPos − collPos`` would move it by the whole distance
         from the rim to the centre, to the opposite rim.
         """
+        target = aim.target
         carried = sorted(held)
-        if target is not None and target_name in (touch.a, touch.b) and carried:
+        if target is not None and aim.target_name in (touch.a, touch.b) and carried:
             centre = self.world.observe().centers.get(carried[0])
             if centre is not None:
                 here, _ = self.world.ee_pose()
@@ -555,47 +471,61 @@ class Executor:
             shift *= self.config.max_goal_shift / norm
         return shift
 
-    def _unallowed(
-        self,
-        touches: Sequence[Touch],
-        held: set[str],
-        seg: Segment,
-        baseline: set[Collision],
-        allowed: set[Collision],
-        arrivals: dict[Collision, Landing],
-    ) -> Touch | None:
-        """The first contact that involves a gripper (or, while the gripper is closed, the object it held
-        at the start), is new since the primitive began, is not allowed by the condition and is not a
-        landing its post-conditions imply (:func:`landings`)."""
-        for touch in touches:
-            movers = is_gripper(touch.a) or is_gripper(touch.b)
-            if seg.gripper >= 0.5:
-                movers = movers or touch.a in held or touch.b in held
-            if not movers or touch.collision in baseline or touch.collision in allowed:
-                continue
-            landing = arrivals.get(touch.collision)
-            if landing is not None and landing.admits(touch):
-                continue
-            return touch
-        return None
+    def _duration(self, seg: Segment, start: np.ndarray, goal: np.ndarray) -> float:
+        """The piece's duration τ, s: the demonstrated one, longer for an approach to a target that is
+        farther than demonstrated, at an average speed of at most the demonstration's and
+        :attr:`ExecutionConfig.speed_limit`."""
+        if seg.anchor != "target":
+            return seg.duration
+        demo = float(np.linalg.norm(seg.dmp.goal - seg.dmp.y0))
+        new = float(np.linalg.norm(goal - start))
+        speed = min(self.config.speed_limit, demo / seg.duration) if demo > 1e-6 else self.config.speed_limit
+        return max(seg.duration, new / max(speed, 1e-3))
+
+    # --------------------------------------------------------------------------------------- helpers
+    def _applicable(self, cond: TaskCondition, task: str, depth: int) -> TaskCondition:
+        """``cond`` without the container states of objects that have no such state here (``cloth closed``:
+        no primitive can achieve it and no observation can show it), unless they hold now (an open-top mug
+        is ``open``). Generated conditions are expected to contain such slips; each dropped one is
+        reported."""
+        obs = self.world.observe()
+
+        def keep(pred: Predicate) -> bool:
+            if not isinstance(pred, ContainerState) or obs.holds(pred):
+                return True
+            return self.world.affords("close" if pred.is_open else "open", (pred.container,)) is None
+
+        pre = tuple(p for p in cond.pre_conditions if keep(p))
+        post = tuple(p for p in cond.post_conditions if keep(p))
+        dropped = [p for p in (*cond.pre_conditions, *cond.post_conditions) if not keep(p)]
+        if not dropped:
+            return cond
+        self.log.ignored(task, depth, dropped)
+        return dataclasses.replace(cond, pre_conditions=pre, post_conditions=post)
+
+    def _parse(self, name: str) -> str:
+        """The canonical name of the primitive task ``name``, refused when it is malformed or this world
+        cannot afford it."""
+        try:
+            task = parse_task(name)
+        except TaskNameError as exc:
+            raise ExecutionError(str(exc), "bad_task") from None
+        reason = self.world.affords(task.primitive.id, task.objects)
+        if reason is not None:
+            raise ExecutionError(f"cannot {task.name!r}: {reason}", "bad_task")
+        return task.name
 
     def _step(self, position: np.ndarray, orientation: np.ndarray, gripper: float) -> None:
+        """One control step (ControlManipulator) towards the end-effector poses; the command is kept for
+        the settle steps."""
         self._last = (position, orientation, gripper)
         reason = self.world.step(position, orientation, gripper)
         if reason is not None:
             raise ExecutionError(f"simulation failed: {reason}", "simulation")
 
-    def _emit(
-        self, kind: str, task: str, depth: int, message: str, data: dict[str, Any] | None = None
-    ) -> None:
-        event = Event(self.world.time, kind, task, depth, message, data or {})
-        self.events.append(event)
-        if self.on_event is not None:
-            self.on_event(event)
-
     def _result(self, completed: bool, failure: str | None, kind: str | None) -> ExecutionResult:
         return ExecutionResult(
-            completed, failure, kind, self.events, dict(self.conditions), self.adjustments, self.raised
+            completed, failure, kind, self.log.events, dict(self.conditions), self.adjustments, self.raised
         )
 
 
@@ -616,52 +546,20 @@ def _conditioned(seg: Segment, start: np.ndarray, goal: np.ndarray) -> DMPParame
     return dmp.unscaled(bad) if bad.any() else dmp
 
 
-@dataclass(frozen=True)
-class Landing:
-    """Where a held object's contact with the reference of a post-condition is that post-condition coming
-    true (module doc, step 2).
-
-    Attributes:
-        on_top: ``X above Y`` (the contact lies on Y's top, above :attr:`height`); else ``X inside Y``
-            (on Y's floor, below it).
-        height: Y's perceived centre, m, world z.
-    """
-
-    on_top: bool
-    height: float
-
-    def admits(self, touch: Touch) -> bool:
-        """``touch`` (between X and Y) lies on the side of :attr:`height` that the relation implies."""
-        return bool(touch.position[2] >= self.height) == self.on_top
+def _done_already(task: str, cond: TaskCondition, obs: Observation) -> bool:
+    """``task`` is an :data:`IDEMPOTENT` primitive whose post-conditions all hold in ``obs``."""
+    idempotent = parse_task(task).primitive.id in IDEMPOTENT
+    return bool(idempotent and cond.post_conditions and not _missing(cond.post_conditions, obs))
 
 
-def landings(cond: TaskCondition, obs: Observation) -> dict[Collision, Landing]:
-    """The contacts that ``cond``'s post-conditions ``X inside Y`` and ``X above Y`` between two objects
-    imply, by pair X–Y, with Y's perceived centre from ``obs``."""
-    out: dict[Collision, Landing] = {}
-    for q in cond.post_conditions:
-        if not isinstance(q, SpatialRelation) or q.relation not in (Relation.INSIDE, Relation.ABOVE):
-            continue
-        center = obs.centers.get(q.reference)
-        if center is None or is_gripper(q.subject) or is_gripper(q.reference):
-            continue
-        out[Collision(q.subject, q.reference)] = Landing(q.relation == Relation.ABOVE, float(center[2]))
-    return out
-
-
-def allowed_for_arms(collisions: Sequence[Collision], arms: Sequence[str]) -> set[Collision]:
-    """The allowed ``collisions`` of a condition for a skill that moves ``arms`` together: a condition
-    speaks of *the* gripper (``gripper and cloth``), and a multi-arm skill (the dual-arm fold, our addition
-    to the paper's §IV) performs the primitive with each of its arms, so every such pair is allowed for
-    each arm's gripper."""
-    allowed = set(collisions)
-    for c in collisions:
-        for g in arms:
-            if c.a == GRIPPER:
-                allowed.add(Collision(g, c.b))
-            if c.b == GRIPPER:
-                allowed.add(Collision(c.a, g))
-    return allowed
+def _achieved(cond: TaskCondition, missing: Sequence[Predicate]) -> bool:
+    """With the post-conditions ``missing`` after an execution, ``cond``'s primitive counts as done (module
+    doc, step 3): none of its effects (post-conditions that are not pre-conditions, nor relations of the
+    gripper itself) is missing; a primitive without effects needs all its post-conditions."""
+    effects = [
+        q for q in cond.post_conditions if q not in cond.pre_conditions and not _about_gripper_place(q)
+    ]
+    return not any(m in effects for m in missing) and bool(effects or not missing)
 
 
 def _undoing(cond: TaskCondition, obs: Observation) -> tuple[Predicate, Predicate] | None:
@@ -692,28 +590,14 @@ def _gripper_of(pred: Predicate) -> str:
     return pred.gripper if isinstance(pred, GripperState) else "gripper"
 
 
-def _join(items: Sequence[Any] | frozenset[Any]) -> str:
-    return ", ".join(str(i) for i in items) or "none"
-
-
-def _fmt(v: np.ndarray | None) -> str:
-    return "-" if v is None else "(" + ", ".join(f"{x:.3f}" for x in np.asarray(v)) + ")"
-
-
-def _list(v: np.ndarray | None) -> list[float] | None:
-    return None if v is None else [round(float(x), 4) for x in v]
-
-
 __all__ = [
     "METHODS",
+    "Aim",
     "ConditionSource",
     "Event",
     "ExecutionConfig",
     "ExecutionError",
     "ExecutionResult",
     "Executor",
-    "Landing",
     "Method",
-    "allowed_for_arms",
-    "landings",
 ]

@@ -1,0 +1,201 @@
+"""What the executor reports: :class:`Event` and the :class:`EventLog` that words each kind of event.
+
+The executor (Alg. 1, Alg. 2) says what happened through one :class:`EventLog` method per kind; the
+console lines and the JSON trace of ``taskcond run`` are written here, not in the algorithms.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from taskcond.conditions import Predicate, TaskCondition
+from taskcond.execution.skills import Skill
+from taskcond.execution.world import Touch
+
+
+@dataclass(frozen=True)
+class Event:
+    """One thing that happened during execution, for the console and the JSON trace.
+
+    Attributes:
+        time: world time, s.
+        kind: ``step`` (a top-level primitive starts), ``condition``, ``ignored`` (condition parts that
+            cannot apply here), ``skip`` (post-conditions already hold), ``raise`` (Alg. 1 raises a
+            primitive for an unmet pre-condition), ``primitive`` (a primitive's DMPs start),
+            ``collision`` (unallowed, adjusted), ``post`` (post-conditions met), ``post_missing``,
+            ``failure``.
+        task: the primitive task concerned.
+        depth: recursion depth (0 = a step of the long-horizon task).
+        message: human-readable line.
+        data: JSON-ready details.
+    """
+
+    time: float
+    kind: str
+    task: str
+    depth: int
+    message: str
+    data: dict[str, Any] = field(default_factory=dict)
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "time": round(self.time, 3),
+            "kind": self.kind,
+            "task": self.task,
+            "depth": self.depth,
+            "message": self.message,
+            **self.data,
+        }
+
+
+class EventLog:
+    """The events of one run in order, each also passed to ``on_event`` as it happens.
+
+    Args:
+        clock: the world time now, s.
+        on_event: called with every :class:`Event`.
+    """
+
+    def __init__(self, clock: Callable[[], float], on_event: Callable[[Event], None] | None = None) -> None:
+        self.clock = clock
+        self.on_event = on_event
+        self.events: list[Event] = []
+
+    def emit(
+        self, kind: str, task: str, depth: int, message: str, data: dict[str, Any] | None = None
+    ) -> None:
+        event = Event(self.clock(), kind, task, depth, message, data or {})
+        self.events.append(event)
+        if self.on_event is not None:
+            self.on_event(event)
+
+    def step(self, task: str) -> None:
+        self.emit("step", task, 0, f"step: {task}")
+
+    def condition(self, task: str, depth: int, source: str, cond: TaskCondition) -> None:
+        self.emit(
+            "condition",
+            task,
+            depth,
+            f"condition ({source}): pre [{fmt_items(cond.pre_conditions)}] post "
+            f"[{fmt_items(cond.post_conditions)}] collisions [{fmt_items(cond.collisions)}]",
+            {"condition": cond.to_dict()},
+        )
+
+    def ignored(self, task: str, depth: int, dropped: Sequence[Predicate]) -> None:
+        self.emit(
+            "ignored",
+            task,
+            depth,
+            f"{task}: ignoring {fmt_items(dropped)} (no such state here)",
+            {"ignored": [str(p) for p in dropped]},
+        )
+
+    def skip(self, task: str, depth: int) -> None:
+        self.emit("skip", task, depth, f"{task}: post-conditions already hold, skipped")
+
+    def raised(self, task: str, depth: int, pre: Predicate, for_task: str) -> None:
+        self.emit(
+            "raise",
+            task,
+            depth,
+            f"pre-condition '{pre}' of {for_task!r} unmet: raising {task!r}",
+            {"pre_condition": str(pre), "for": for_task},
+        )
+
+    def primitive(
+        self, task: str, depth: int, skill: Skill, target_name: str | None, target: np.ndarray | None
+    ) -> None:
+        self.emit(
+            "primitive",
+            task,
+            depth,
+            f"{task}: skill {skill.task_id} ({len(skill.segments)} DMP pieces)"
+            + (f", goal from {target_name} at {fmt_vector(target)}" if target is not None else ""),
+            {"skill": skill.task_id, "target": target_name, "target_center": json_vector(target)},
+        )
+
+    def collision(
+        self, task: str, depth: int, touch: Touch, back: int, shift: np.ndarray, goal: np.ndarray
+    ) -> None:
+        self.emit(
+            "collision",
+            task,
+            depth,
+            f"{task}: unallowed collision {touch.a} / {touch.b} at {fmt_vector(touch.position)}: backed up "
+            f"{back} points, goal moved by {fmt_vector(shift)} to {fmt_vector(goal)}",
+            {
+                "collision": [touch.a, touch.b],
+                "position": json_vector(touch.position),
+                "goal": json_vector(goal),
+                "shift": json_vector(shift),
+            },
+        )
+
+    def post(self, task: str, depth: int, missing: Sequence[Predicate]) -> None:
+        note = (
+            f" (but not {fmt_items(missing)}: kept from the pre-conditions or the gripper's own place, "
+            "not tried again)"
+            if missing
+            else ""
+        )
+        self.emit("post", task, depth, f"{task}: post-conditions met{note}")
+
+    def retry(self, task: str, depth: int, missing: Sequence[Predicate], attempt: int) -> None:
+        self.emit(
+            "post_missing",
+            task,
+            depth,
+            f"{task}: post-conditions not met: {fmt_items(missing)}; trying again",
+            {"missing": [str(m) for m in missing], "attempt": attempt},
+        )
+
+    def not_retried(
+        self,
+        task: str,
+        depth: int,
+        undo: tuple[Predicate, Predicate],
+        missing: Sequence[Predicate],
+        attempt: int,
+    ) -> None:
+        self.emit(
+            "post_missing",
+            task,
+            depth,
+            f"{task}: not tried again, its pre-condition '{undo[0]}' would undo '{undo[1]}'",
+            {"missing": [str(m) for m in missing], "attempt": attempt, "final": True},
+        )
+
+    def gave_up(self, task: str, depth: int, missing: Sequence[Predicate], attempts: int) -> None:
+        self.emit(
+            "post_missing",
+            task,
+            depth,
+            f"{task}: post-conditions not met after {attempts} attempt(s): {fmt_items(missing)}; going on",
+            {"missing": [str(m) for m in missing], "attempt": attempts, "final": True},
+        )
+
+    def failure(self, reason: str, kind: str) -> None:
+        self.emit("failure", "", 0, f"stopped: {reason}", {"reason": reason, "failure_kind": kind})
+
+
+def fmt_items(items: Sequence[Any] | frozenset[Any]) -> str:
+    """``a, b, c``, or ``none``."""
+    return ", ".join(str(i) for i in items) or "none"
+
+
+def fmt_vector(v: np.ndarray | None) -> str:
+    """``(x, y, z)`` in millimetre precision, or ``-``."""
+    return "-" if v is None else "(" + ", ".join(f"{x:.3f}" for x in np.asarray(v)) + ")"
+
+
+def json_vector(v: np.ndarray | None) -> list[float] | None:
+    """``v`` as a JSON list rounded to 0.1 mm, or None."""
+    return None if v is None else [round(float(x), 4) for x in v]
+
+
+__all__ = ["Event", "EventLog", "fmt_items", "fmt_vector", "json_vector"]
