@@ -285,9 +285,8 @@ def default_basis(
     The paper does not give them. Centres are the phases reached at N equally spaced times over the
     demonstration, ``c_i = x0 exp(−α_x i / (N − 1))``, so that each basis covers an equal share of the
     movement's duration (a common choice in implementations of Ijspeert et al. 2013). Each width σ_i
-    is half the distance to the next centre, so neighbours overlap at Ψ = exp(−2) ≈ 0.14: on a
-    minimum-jerk test demonstration this reproduced positions 4× more closely than σ_i = the distance
-    (1.6e-4 m vs 6.3e-4 m over a 0.3 m movement) with a smoother acceleration profile.
+    is half the distance to the next centre, so neighbours overlap at Ψ = exp(−2) ≈ 0.14 (compared with
+    σ_i = the distance in BENCHMARKS.md, DMP).
 
     Returns:
         (centres (N,), widths (N,)), both in phase units.

@@ -332,18 +332,17 @@ class ConditionGenerator:
         samples: self-consistency samples per chat (1: a single greedy answer).
         temperature: sampling temperature when ``samples > 1``.
         grammar: when to send the answer grammar (constrained decoding): ``"fallback"`` (default) lets the
-            model answer freely and constrains only the retries after an invalid answer — llama.cpp's
-            grammar sampling costs ~80 ms per token on 2 cores, four times the free decoding; ``"always"``
-            constrains every request; ``"never"`` relies on the validator alone.
+            model answer freely and constrains only the retries after an invalid answer, as llama.cpp's
+            grammar sampling is several times slower than free decoding (BENCHMARKS.md, Speed);
+            ``"always"`` constrains every request; ``"never"`` relies on the validator alone.
         prompt_version: directory of the prompt files.
         example_order: ``"registry"`` (the registry's order, shuffled by the trial's ``order_seed``),
             ``"similar"`` (then the examples most similar to the task's primitive last, next to the
             question; see :func:`similarity`), ``"recall"`` (the registry's order, then the task's own
             example once more, right before the question, if it is shown: every prompt shares the prefix
             of all examples, which llama.cpp reuses), or ``"auto"`` (default): ``"recall"`` in the
-            few-shot turns layout (v5's generation: the own example next to the question mended the
-            answers the registry order got wrong), ``"registry"`` in the one-message layout (where the
-            similar order measured worse).
+            few-shot turns layout, ``"registry"`` in the one-message layout (why: BENCHMARKS.md,
+            Accuracy).
     """
 
     backend: ChatBackend

@@ -24,10 +24,9 @@ Saxena 2023; speculative decoding, Leviathan et al. 2023): the continuation of t
 match of the answer's last tokens is proposed and checked in one batch, and every proposed token the model
 would have chosen is kept. A condition the examples already show (generation) is copied nearly whole
 this way, in a few batches instead of one evaluation per token. The answer is the greedy one, up to the
-floating-point differences between evaluating a token in a batch or alone, which can tip a near tie: the
-ten generation answers of ``benchmarks/bench_llm.py`` came out identical with and without drafts, while 4
-of its 10 leave-one-out answers took another word in their free reasoning line and went on differently.
-Drafts depend only on the prompt and the answer so far, so an answer is still a function of its prompt.
+floating-point differences between evaluating a token in a batch or alone, which can tip a near tie (in
+a free reasoning line more often than in a condition copied from an example; BENCHMARKS.md, Speed). Drafts
+depend only on the prompt and the answer so far, so an answer is still a function of its prompt.
 """
 
 from __future__ import annotations
@@ -50,12 +49,13 @@ from taskcond.llm.models import DEFAULT_EMBEDDED_MODEL, get_embedded_model, mode
 CONTEXTS = 2
 """llama.cpp contexts kept (one per concurrent conversation; the weights are shared through mmap)."""
 BATCH = 64
-"""Tokens per llama.cpp batch (on 2 cores prompt evaluation is about as fast in batches of 64 as of 512)."""
+"""Tokens per llama.cpp batch of a prompt segment (the batch size that was measured: BENCHMARKS.md, Speed)."""
 PREFIX_CACHE_BYTES = 1 << 30
-"""Most bytes of prefix states kept on disk; the least recently used ones go first (one prefix of the
-condition generator's examples is about 17 MB)."""
+"""Most bytes of prefix states kept on disk; the least recently used ones go first (a state holds one
+chat's evaluated prefix; sizes in BENCHMARKS.md, Speed)."""
 DRAFT_MAX = 48
-"""Most tokens proposed in one draft (a batch of 48 costs about 14 single-token evaluations on 2 cores)."""
+"""Most tokens proposed in one draft: a longer draft the model rejects early costs more than it saves (costs
+of a batch against single tokens in BENCHMARKS.md, Speed)."""
 DRAFT_MIN_MATCH = 3
 """Fewest tokens the answer's end must share with an earlier place in the prompt before that place's
 continuation is proposed; a draft is twice as long as the match, at least 4 tokens, at most
