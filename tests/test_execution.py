@@ -18,7 +18,7 @@ from taskcond.conditions import (
     TaskCondition,
 )
 from taskcond.dmp import rollout
-from taskcond.execution.collisions import Landing, allowed_for_arms, landings
+from taskcond.execution.collisions import CollisionMonitor, Landing, allowed_for_arms, landings
 from taskcond.execution.decompose import DecompositionError, parse_plan
 from taskcond.execution.skills import (
     HALF_TURN,
@@ -279,6 +279,46 @@ def test_a_collision_of_the_gripper_is_allowed_for_every_arm_of_a_multi_arm_skil
     both = allowed_for_arms(allowed, ("gripper", "kinova gripper"))
     assert both == {*allowed, Collision("kinova gripper", "cloth")}
     assert allowed_for_arms(allowed, ("gripper",)) == set(allowed)
+
+
+def test_the_collision_monitor_reports_only_new_unallowed_contacts_of_what_moves() -> None:
+    """Alg. 2 lines 8-9 while carrying the toothpaste into the mug: contacts there at the start, allowed by
+    the condition, with the container the gripper is inside, or landing on the mug's floor are no
+    collision; the gripper's (or, while closed, the held object's) new contact with the box is, until the
+    goal was adjusted for it; a contact between two bodies that do not move is never one."""
+    cond = TaskCondition(
+        "move toothpaste into mug",
+        ("toothpaste", "mug"),
+        (GripperState("toothpaste"),),
+        (SpatialRelation("toothpaste", Relation.INSIDE, "mug"),),
+        (Collision("gripper", "toothpaste"),),
+    )
+    obs = Observation(
+        frozenset({GripperState("toothpaste"), SpatialRelation("gripper", Relation.INSIDE, "drawer")}),
+        {"mug": np.array([0.5, 0.0, 0.05])},
+        (Touch("toothpaste", "table", np.zeros(3)),),
+    )
+    monitor = CollisionMonitor.start(cond, obs, ("gripper",))
+    assert monitor.held == {"toothpaste"}
+
+    def touch(a: str, b: str, z: float = 0.2) -> Touch:
+        return Touch(a, b, np.array([0.5, 0.0, z]))
+
+    quiet = [
+        touch("toothpaste", "table"),  # there at the start
+        touch("gripper", "toothpaste"),  # allowed by the condition
+        touch("gripper", "drawer"),  # the container the gripper is leaving
+        touch("toothpaste", "mug", z=0.01),  # landing on the mug's floor
+        touch("box", "table"),  # neither moves
+    ]
+    assert monitor.unallowed(quiet, closed=True) is None
+    rim = touch("toothpaste", "mug", z=0.1)
+    assert monitor.unallowed([*quiet, rim], closed=True) is rim
+    assert monitor.unallowed([rim], closed=False) is None  # an open gripper leaves the toothpaste behind
+    box = touch("gripper", "box")
+    assert monitor.unallowed([box, rim], closed=False) is box
+    monitor.adjusted(box)
+    assert monitor.unallowed([box], closed=True) is None
 
 
 def test_a_piece_keeps_the_half_turn_twin_of_its_orientation_nearest_the_start() -> None:
