@@ -19,7 +19,6 @@ perception layer, and are written as predicates of :mod:`taskcond.conditions` wh
 
 from __future__ import annotations
 
-import copy
 from collections.abc import Sequence
 from typing import Any
 
@@ -67,7 +66,8 @@ class GroundTruth:
     def at(self, reading: Reading) -> GroundTruth:
         """A judge of the same scene that takes the state from ``reading`` where it has it; valid while
         nothing moves (:meth:`taskcond.envs.kitchen.KitchenEnv.step` judges success with it)."""
-        view = copy.copy(self)
+        view = object.__new__(GroundTruth)  # a shallow copy, cheaper than copy.copy (every control step)
+        view.__dict__.update(self.__dict__)
         view._known = reading
         return view
 
