@@ -191,12 +191,10 @@ class KitchenEnv(gym.Env):
             self._command_kinova(kinova_action)
         if self.failure is None:
             x, y, z, qx, qy, qz, qw, gripper = action.tolist()
-            # numpy's dot of the quaternion sums the products in this order (OpenBLAS's loop for vectors
-            # this short; the same bits on 10^6 random quaternions), so the target is unchanged
+            # the products summed in the order of numpy's dot of the quaternion: the same bits
             norm = math.sqrt(qx * qx + qy * qy + qz * qz + qw * qw) or 1.0
-            # Solving an unchanged target again from its solution moved the end effector by < 2 µm (99th
-            # percentile of 7,100 reachable targets logged from oracle episodes); beyond the joint limits it
-            # only crept along them (up to 5 mm per call), so the solution is kept.
+            # an unchanged target keeps its solution: solving it again only jitters or creeps along the joint
+            # limits (BENCHMARKS.md, "Simulation throughput")
             target = (x, y, z, qx / norm, qy / norm, qz / norm, qw / norm)
             if target != self._q_target:
                 self._q = self.robot.ik(target[:3], target[3:], seed=self._q)
