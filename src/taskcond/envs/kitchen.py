@@ -66,7 +66,8 @@ class KitchenEnv(gym.Env):
     """One task of the suite in its own PyBullet client.
 
     Args:
-        task: the task (see :func:`taskcond.tasks.registry.make`).
+        task: the task, any :class:`~taskcond.envs.protocol.Task` (:func:`taskcond.tasks.registry.make`
+            builds the suite's).
         seed: seed of the first :meth:`reset`.
         render_mode: ``"rgb_array"`` or ``None``.
         gui: PyBullet GUI instead of headless.
