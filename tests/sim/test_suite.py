@@ -45,6 +45,16 @@ def test_registry_covers_primitives_and_long_horizon():
     assert lht["LHT2*"].primitive[0] == "close bottom drawer"
 
 
+def test_the_environment_layer_imports_no_task():
+    """Layers apart: :mod:`taskcond.envs` knows tasks only through its protocol; tasks import it."""
+    import subprocess
+    import sys
+
+    code = "import sys, taskcond.envs.kitchen; print([m for m in sys.modules if m.startswith('taskcond.')])"
+    loaded = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert "taskcond.envs.reader" in loaded and "taskcond.tasks" not in loaded
+
+
 def test_unknown_names_list_valid_ones():
     with pytest.raises(UnknownTaskError, match=r"unknown task 'fly-bottle'; valid: grasp-bottle"):
         make("fly-bottle")
