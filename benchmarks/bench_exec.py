@@ -34,7 +34,7 @@ def profile_episode(task: str, method: str, seed: int, library, source) -> dict[
     env = sum(
         v[3]
         for k, v in stats.items()
-        if k[0].endswith("tasks/env.py") and k[2] in ("__init__", "reset", "step", "close")
+        if k[0].endswith("envs/kitchen.py") and k[2] in ("__init__", "reset", "step", "close")
     )
     total = result.wall_seconds
     return {

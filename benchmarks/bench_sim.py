@@ -25,8 +25,8 @@ from dataclasses import dataclass
 import numpy as np
 import pybullet as p
 
+from taskcond.envs.kitchen import KitchenEnv
 from taskcond.sim.franka import IK_DAMPING, IK_MAX_ITERATIONS, PYBULLET_IK_DAMPING, Franka
-from taskcond.tasks.env import KitchenEnv
 from taskcond.tasks.oracle import run_episode, run_oracle
 from taskcond.tasks.registry import make, task_ids
 

@@ -20,12 +20,12 @@ from taskcond.conditions import (
     SpatialRelation,
     TaskCondition,
 )
+from taskcond.envs.kitchen import KitchenEnv
 from taskcond.execution.executor import Executor
 from taskcond.execution.kitchen import FreeTask, KitchenWorld, learn_library
 from taskcond.execution.runner import RunPlan, plan_run, run_episode
 from taskcond.execution.sources import EnvConditions, LLMConditions
 from taskcond.generator import ConditionGenerator
-from taskcond.tasks.env import KitchenEnv
 from taskcond.tasks.registry import make
 
 pytestmark = pytest.mark.sim

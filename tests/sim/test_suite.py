@@ -45,6 +45,16 @@ def test_registry_covers_primitives_and_long_horizon():
     assert lht["LHT2*"].primitive[0] == "close bottom drawer"
 
 
+def test_the_environment_layer_imports_no_task():
+    """Layers apart: :mod:`taskcond.envs` knows tasks only through its protocol; tasks import it."""
+    import subprocess
+    import sys
+
+    code = "import sys, taskcond.envs.kitchen; print([m for m in sys.modules if m.startswith('taskcond.')])"
+    loaded = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert "taskcond.envs.reader" in loaded and "taskcond.tasks" not in loaded
+
+
 def test_unknown_names_list_valid_ones():
     with pytest.raises(UnknownTaskError, match=r"unknown task 'fly-bottle'; valid: grasp-bottle"):
         make("fly-bottle")
@@ -52,25 +62,6 @@ def test_unknown_names_list_valid_ones():
         UnknownTaskError, match=r"unknown object\(s\) 'plate' for primitive 'grasp'; valid: bottle"
     ):
         make("grasp-plate")
-
-
-def test_every_task_makes_resets_and_steps():
-    """Smoke test over the whole registry in one client per task: make, seeded reset, a few steps."""
-    for task_id in task_ids():
-        e = make(task_id, seed=3)
-        try:
-            obs, info = e.reset()
-            assert obs["object_poses"].shape == (len(e.object_names), 7)
-            assert info["failure"] is None
-            hold = np.concatenate(
-                [obs["ee_position"], obs["ee_orientation"], [float(e.robot.gripper_closed)]]
-            )
-            for _ in range(3):
-                obs, _, terminated, _, info = e.step(hold)
-                assert not terminated, (task_id, info)
-            assert np.all(np.isfinite(obs["joint_positions"]))
-        finally:
-            e.close()
 
 
 def test_seeded_reset_is_reproducible(env):
@@ -238,25 +229,25 @@ def test_success_checks_on_hand_placed_states(env):
     assert truth.holds(GripperState(None)) and not truth.holds(GripperState("bottle"))
 
 
-@pytest.mark.parametrize(
-    "task_id",
-    [
-        "grasp-bowl",
-        "release-mug",
-        "open-bottom_drawer",
-        "close-box",
-        "open-microwave",
-        "tilt-bottle",
-        "move-mug",
-        "move_on_top-bottle-box",
-        "move_into-toothpaste-mug",
-        "move_in_front-bowl-cabinet",
-    ],
-)
-def test_oracle_succeeds(task_id, tmp_path):
-    report = run_oracle(task_id, episodes=2, seed=100)
-    assert report.successes == 2, (report.failures, report.failed_seeds)
-    assert report.failed_seeds == []
+ORACLE_SEED = 0
+"""Seed of the one oracle episode per registry entry; seeded episodes are reproducible bit for bit."""
+
+
+@pytest.mark.parametrize("task_id", task_ids())
+def test_every_registry_oracle_succeeds(task_id):
+    """Every registry entry (new ones as they register): make, a seeded reset with a well-formed
+    observation, and one oracle episode that succeeds without a blow-up."""
+    e = make(task_id)
+    try:
+        obs, info = e.reset(seed=ORACLE_SEED)
+        assert obs["object_poses"].shape == (len(e.object_names), 7)
+        assert info["failure"] is None and info["steps"] == 0
+        assert all(obs[key] in e.observation_space[key] for key in ("joint_positions", "gripper_width"))
+        ok, reason, executed, steps = run_episode(e, ORACLE_SEED)
+    finally:
+        e.close()
+    assert ok, f"{task_id} seed {ORACLE_SEED}: {reason}"
+    assert 0 < len(executed) <= steps <= e.task.max_steps
 
 
 def test_long_horizon_oracle_and_video(tmp_path):

@@ -9,12 +9,12 @@ from __future__ import annotations
 import time
 from collections.abc import Callable, Iterable
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 import pybullet as p
 
 from taskcond.conditions import Collision
+from taskcond.envs.kitchen import KitchenEnv
 from taskcond.execution.skills import Demonstration, SkillLibrary, learn_skill, target_object
 from taskcond.execution.sources import condition_from_environment
 from taskcond.execution.world import Observation, Touch
@@ -22,7 +22,7 @@ from taskcond.sim.perception import EnvironmentInfo, Perception, PerceptionConfi
 from taskcond.sim.recording import VideoRecorder
 from taskcond.sim.scene import KINOVA_GRIPPER
 from taskcond.tasks.base import PrimitiveTask, Task, TaskInfo
-from taskcond.tasks.env import KitchenEnv
+from taskcond.tasks.groundtruth import GroundTruth
 from taskcond.tasks.registry import get_task, list_tasks, make
 
 REACH = 0.95
@@ -201,7 +201,7 @@ class FreeTask(Task):
     def __init__(self, label: str, steps: tuple[str, ...] = ()) -> None:
         self.info = TaskInfo("instruction", "long-horizon", steps, (), label)
 
-    def success(self, env: Any) -> bool:
+    def success(self, env: KitchenEnv, truth: GroundTruth | None = None) -> bool:
         return False
 
 

@@ -22,6 +22,7 @@ from typing import Any
 
 import numpy as np
 
+from taskcond.envs.kitchen import KitchenEnv
 from taskcond.execution.executor import METHODS, ConditionSource, Event, ExecutionConfig, Executor, Method
 from taskcond.execution.kitchen import FreeTask, KitchenWorld, learn_library, primitive_task_ids
 from taskcond.execution.skills import LIBRARY_FORMAT, SkillError, SkillLibrary
@@ -29,7 +30,6 @@ from taskcond.execution.sources import EnvConditions, LLMConditions
 from taskcond.llm.models import cache_dir
 from taskcond.primitives import TaskNameError, parse_task
 from taskcond.sim.recording import VideoRecorder
-from taskcond.tasks.env import KitchenEnv
 from taskcond.tasks.registry import UnknownTaskError, get_task, list_tasks, make
 
 DEFAULT_NOISE = 0.005

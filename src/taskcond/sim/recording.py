@@ -1,6 +1,6 @@
 """Headless video of an episode (mp4 through imageio-ffmpeg, or GIF), for ``taskcond oracle --video``.
 
-Frames are RGB arrays (H, W, 3) uint8 as returned by :meth:`taskcond.tasks.env.KitchenEnv.render`.
+Frames are RGB arrays (H, W, 3) uint8 as returned by :meth:`taskcond.envs.kitchen.KitchenEnv.render`.
 """
 
 from __future__ import annotations

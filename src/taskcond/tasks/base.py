@@ -1,8 +1,9 @@
 """Task definitions of the suite (paper §IV, Table I): what a task is, how it sets up its initial state, how
 its success is checked and how its scripted oracle plans.
 
-A :class:`Task` owns no simulator; :class:`taskcond.tasks.env.KitchenEnv` calls it. Primitive tasks live
-in one module per primitive family, long-horizon tasks in :mod:`taskcond.tasks.long_horizon`.
+A :class:`Task` owns no simulator; :class:`taskcond.envs.kitchen.KitchenEnv` calls it through the
+protocol :class:`taskcond.envs.protocol.Task`. Primitive tasks live in one module per primitive family,
+long-horizon tasks in :mod:`taskcond.tasks.long_horizon`.
 """
 
 from __future__ import annotations
@@ -16,11 +17,12 @@ import numpy as np
 
 from taskcond.conditions import Predicate
 from taskcond.primitives import PRIMITIVES
+from taskcond.tasks.groundtruth import GroundTruth
 from taskcond.tasks.trajectory import Trajectory, Waypoint
 
 if TYPE_CHECKING:
-    from taskcond.sim.scene import SceneConfig
-    from taskcond.tasks.env import KitchenEnv
+    from taskcond.envs.kitchen import KitchenEnv
+    from taskcond.sim.scene import KitchenScene, SceneConfig
 
 
 @dataclass(frozen=True)
@@ -61,6 +63,10 @@ class Task:
         (:func:`taskcond.sim.scene.dual_arm_config`)."""
         return config
 
+    def ground_truth(self, scene: KitchenScene) -> GroundTruth:
+        """The judge of the task's conditions on ``scene``, which the environment keeps as ``env.truth``."""
+        return GroundTruth(scene)
+
     def setup(self, env: KitchenEnv, rng: np.random.Generator) -> None:
         """Bring the freshly randomized scene into the task's initial state (reset time only)."""
 
@@ -78,9 +84,12 @@ class Task:
         """Success criteria outside the vocabulary (lifted, tilted, at the target)."""
         return True
 
-    def success(self, env: KitchenEnv) -> bool:
-        """Ground-truth success: every post-condition holds and :meth:`extra_success`."""
-        return all(map(env.truth.holds, self._success_conditions)) and self.extra_success(env)
+    def success(self, env: KitchenEnv, truth: GroundTruth | None = None) -> bool:
+        """Ground-truth success: every post-condition holds by ``truth`` (``None``: ``env.truth``, which
+        reads the simulator now; :meth:`KitchenEnv.step <taskcond.envs.kitchen.KitchenEnv.step>` passes one
+        bound to the step's reading) and :meth:`extra_success`."""
+        judge = env.truth if truth is None else truth
+        return all(map(judge.holds, self._success_conditions)) and self.extra_success(env)
 
     def plans(self, env: KitchenEnv) -> Iterator[Trajectory]:
         """The scripted oracle: end-effector trajectories to execute one after the other, each planned

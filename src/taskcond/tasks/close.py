@@ -10,8 +10,8 @@ from __future__ import annotations
 import numpy as np
 
 from taskcond.conditions import ContainerState, Predicate
+from taskcond.envs.kitchen import KitchenEnv
 from taskcond.tasks.base import PrimitiveTask
-from taskcond.tasks.env import KitchenEnv
 from taskcond.tasks.skills import door_motion, drawer_motion, lid_close
 from taskcond.tasks.trajectory import Waypoint
 

@@ -1,6 +1,6 @@
 """Dual-arm end-effector trajectories (paper §IV: "dual-arm manipulation tasks, e.g., folding the cloth"): a
 Franka trajectory and a Kinova trajectory sampled at the same control times, executed together by the (16,)
-actions of :class:`taskcond.tasks.env.KitchenEnv`.
+actions of :class:`taskcond.envs.kitchen.KitchenEnv`.
 """
 
 from __future__ import annotations
@@ -13,7 +13,7 @@ import numpy as np
 from taskcond.tasks.trajectory import Trajectory, Waypoint
 
 if TYPE_CHECKING:
-    from taskcond.tasks.env import KitchenEnv
+    from taskcond.envs.kitchen import KitchenEnv
 
 
 @dataclass(frozen=True)

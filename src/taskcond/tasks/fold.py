@@ -25,12 +25,12 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from taskcond.conditions import GripperState, Predicate, Relation, SpatialRelation
+from taskcond.envs.kitchen import KitchenEnv
 from taskcond.sim.cloth import ClothSpec, FoldMeasure, fold_measure
 from taskcond.sim.franka import top_down
 from taskcond.sim.scene import KINOVA_GRIPPER, SceneConfig, dual_arm_config
 from taskcond.tasks.base import PrimitiveTask
 from taskcond.tasks.dual_arm import DualArmTrajectory
-from taskcond.tasks.env import KitchenEnv
 from taskcond.tasks.skills import CLOSED, GRIP_TIME, OPEN, bottom_to_com, carry, nearest_grip, plan
 from taskcond.tasks.trajectory import Trajectory, Waypoint
 

@@ -8,8 +8,8 @@ from __future__ import annotations
 import numpy as np
 
 from taskcond.conditions import GripperState, Predicate
+from taskcond.envs.kitchen import KitchenEnv
 from taskcond.tasks.base import PrimitiveTask
-from taskcond.tasks.env import KitchenEnv
 from taskcond.tasks.skills import pick
 from taskcond.tasks.trajectory import Waypoint
 

@@ -20,7 +20,7 @@ perception layer, and are written as predicates of :mod:`taskcond.conditions` wh
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import Any, NamedTuple
+from typing import Any
 
 import numpy as np
 import pybullet as p
@@ -32,8 +32,9 @@ from taskcond.conditions import (
     Relation,
     SpatialRelation,
 )
+from taskcond.envs.reader import Reading
 from taskcond.sim.franka import FINGER_JOINTS
-from taskcond.sim.scene import ARTICULATED, GRIPPER, KINOVA_GRIPPER, FramePose, KitchenScene
+from taskcond.sim.scene import ARTICULATED, GRIPPER, KINOVA_GRIPPER, KitchenScene
 
 CLOSED_FRACTION = 0.08
 """A container is closed when its joint is within this fraction of its range from closed."""
@@ -45,35 +46,30 @@ ABOVE_TOLERANCE = 0.01
 """Metres A's lowest point may sink below B's top for ``A above B``."""
 
 
-class KnownState(NamedTuple):
-    """What the caller has read of the current simulator state (:attr:`GroundTruth.known`).
-
-    Attributes:
-        bases: centre-of-mass pose (position m, quaternion xyzw, world) of each free object, in the order of
-            ``KitchenScene.free_objects``, as ``p.getBasePositionAndOrientation`` reports it.
-        open_fractions: open fraction of each container of :data:`~taskcond.sim.scene.ARTICULATED`, in that
-            order, as ``KitchenScene.open_fractions`` computes it.
-        contacts: body id → its contact points as ``p.getContactPoints(bodyA=body)`` reports them, for the
-            bodies the caller read (the others are asked for).
-    """
-
-    bases: Sequence[FramePose]
-    open_fractions: Sequence[float]
-    contacts: dict[int, Sequence[tuple[Any, ...]]]
-
-
 class GroundTruth:
-    """Predicates of the condition vocabulary evaluated on a :class:`KitchenScene`."""
+    """Predicates of the condition vocabulary evaluated on a :class:`KitchenScene`.
+
+    A judge made with ``GroundTruth(scene)`` asks PyBullet for everything; :meth:`at` gives one that takes
+    what a step has read (:class:`taskcond.envs.reader.Reading`) from that reading instead. A judge never
+    changes what it reads from, so the answers do not depend on the order of calls.
+    """
 
     def __init__(self, scene: KitchenScene) -> None:
         self.scene = scene
         self._free_by_body = {scene.bodies[name]: name for name in scene.free_objects}
         self._free_index = {name: k for k, name in enumerate(scene.free_objects)}
         self._container_index = {name: k for k, name in enumerate(ARTICULATED)}
-        self.known: KnownState | None = None
-        """The current state as the caller read it, while it holds (:meth:`taskcond.tasks.env.KitchenEnv.step`
-        sets it around its success check from the step's own reading, and clears it); ``None``: every
-        predicate asks PyBullet."""
+        self._known: Reading | None = None
+        """The reading this judge takes free-object poses, open fractions and contacts from (those it
+        holds); ``None``: it asks PyBullet."""
+
+    def at(self, reading: Reading) -> GroundTruth:
+        """A judge of the same scene that takes the state from ``reading`` where it has it; valid while
+        nothing moves (:meth:`taskcond.envs.kitchen.KitchenEnv.step` judges success with it)."""
+        view = object.__new__(GroundTruth)  # a shallow copy, cheaper than copy.copy (every control step)
+        view.__dict__.update(self.__dict__)
+        view._known = reading
+        return view
 
     def com(self, name: str) -> np.ndarray:
         """Centre (3,) m, world: centre of mass of a free object, mean node of the cloth, AABB centre of
@@ -91,9 +87,9 @@ class GroundTruth:
         return (lo + hi) / 2
 
     def _known_com(self, name: str) -> tuple[float, float, float] | None:
-        """The centre of mass (m, world) of free object ``name`` as :attr:`known` holds it; ``None`` for
+        """The centre of mass (m, world) of free object ``name`` as :attr:`_known` holds it; ``None`` for
         anything else or without a known state."""
-        known, index = self.known, self._free_index.get(name)
+        known, index = self._known, self._free_index.get(name)
         return known.bases[index][0] if known is not None and index is not None else None
 
     def _fingers(self, gripper: str) -> tuple[int, tuple[int, int]]:
@@ -106,8 +102,8 @@ class GroundTruth:
 
     def contacts(self, body: int) -> Sequence[tuple[Any, ...]]:
         """The contact points of ``body`` as ``p.getContactPoints(bodyA=body)`` reports them (``body`` is
-        each point's body A, item 1): those :attr:`known` holds, else asked now."""
-        known = self.known
+        each point's body A, item 1): those :attr:`_known` holds, else asked now."""
+        known = self._known
         if known is not None:
             points = known.contacts.get(body)
             if points is not None:
@@ -168,9 +164,9 @@ class GroundTruth:
         return bool(left or right)
 
     def open_fraction(self, container: str) -> float:
-        """How far open an articulated container is (0 closed, 1 fully open): from :attr:`known` if set,
+        """How far open an articulated container is (0 closed, 1 fully open): from :attr:`_known` if set,
         else :meth:`KitchenScene.open_fraction`."""
-        known = self.known
+        known = self._known
         if known is not None:
             return known.open_fractions[self._container_index[container]]
         return self.scene.open_fraction(container)
@@ -230,4 +226,4 @@ class GroundTruth:
         return self.in_front_of(a, b)
 
 
-__all__ = ["GroundTruth", "KnownState"]
+__all__ = ["GroundTruth"]

@@ -13,11 +13,11 @@ from collections.abc import Iterator
 import numpy as np
 
 from taskcond.conditions import ContainerState, GripperState, Predicate, Relation, SpatialRelation
+from taskcond.envs.kitchen import KitchenEnv
 from taskcond.sim.scene import KINOVA_GRIPPER, SceneConfig, dual_arm_config
 from taskcond.tasks.base import PrimitiveTask, Task, TaskInfo
 from taskcond.tasks.close import Close
 from taskcond.tasks.dual_arm import DualArmTrajectory
-from taskcond.tasks.env import KitchenEnv
 from taskcond.tasks.fold import Fold, MoveOntoCloth, folded
 from taskcond.tasks.grasp import Grasp
 from taskcond.tasks.move_into import MoveInto

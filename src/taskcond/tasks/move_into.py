@@ -13,9 +13,9 @@ from dataclasses import replace
 import numpy as np
 
 from taskcond.conditions import Predicate, Relation, SpatialRelation
+from taskcond.envs.kitchen import KitchenEnv
 from taskcond.sim.franka import top_down
 from taskcond.tasks.base import PrimitiveTask
-from taskcond.tasks.env import KitchenEnv
 from taskcond.tasks.skills import bottom_to_com, carry, current, grasp_of, nearest_grip
 from taskcond.tasks.trajectory import Waypoint
 

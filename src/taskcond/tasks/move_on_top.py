@@ -9,8 +9,8 @@ from __future__ import annotations
 import numpy as np
 
 from taskcond.conditions import Predicate, Relation, SpatialRelation
+from taskcond.envs.kitchen import KitchenEnv
 from taskcond.tasks.base import PrimitiveTask
-from taskcond.tasks.env import KitchenEnv
 from taskcond.tasks.skills import bottom_to_com, carry, grasp_of
 from taskcond.tasks.trajectory import Waypoint
 

@@ -7,8 +7,8 @@ Initial state: every container closed. Success: ``A open`` (joint past half of i
 from __future__ import annotations
 
 from taskcond.conditions import ContainerState, Predicate
+from taskcond.envs.kitchen import KitchenEnv
 from taskcond.tasks.base import PrimitiveTask
-from taskcond.tasks.env import KitchenEnv
 from taskcond.tasks.skills import door_motion, drawer_motion, lid_open
 from taskcond.tasks.trajectory import Waypoint
 

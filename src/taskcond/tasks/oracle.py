@@ -9,8 +9,8 @@ from collections import Counter
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from taskcond.envs.kitchen import KitchenEnv
 from taskcond.sim.recording import VideoRecorder
-from taskcond.tasks.env import KitchenEnv
 from taskcond.tasks.registry import make
 from taskcond.tasks.trajectory import Trajectory
 

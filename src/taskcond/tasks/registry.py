@@ -11,6 +11,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
+from taskcond.envs.kitchen import KitchenEnv
 from taskcond.primitives import PRIMITIVES
 from taskcond.sim.scene import SceneConfig
 from taskcond.tasks import (
@@ -26,7 +27,6 @@ from taskcond.tasks import (
     tilt,
 )
 from taskcond.tasks.base import PrimitiveTask, Task, TaskInfo
-from taskcond.tasks.env import KitchenEnv
 from taskcond.tasks.long_horizon import long_horizon_tasks
 
 

@@ -11,8 +11,8 @@ from collections.abc import Iterator
 import numpy as np
 
 from taskcond.conditions import GripperState, Predicate
+from taskcond.envs.kitchen import KitchenEnv
 from taskcond.tasks.base import PrimitiveTask
-from taskcond.tasks.env import KitchenEnv
 from taskcond.tasks.skills import grasp_of, release_plans
 from taskcond.tasks.trajectory import Trajectory
 

@@ -22,7 +22,7 @@ from taskcond.sim.scene import KitchenScene
 from taskcond.tasks.trajectory import Trajectory, Waypoint
 
 if TYPE_CHECKING:
-    from taskcond.tasks.env import KitchenEnv
+    from taskcond.envs.kitchen import KitchenEnv
 
 OPEN, CLOSED = 0.0, 1.0
 SAFE_Z = 0.30

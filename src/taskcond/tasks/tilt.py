@@ -12,8 +12,8 @@ import pybullet as p
 from scipy.spatial.transform import Rotation
 
 from taskcond.conditions import GripperState, Predicate
+from taskcond.envs.kitchen import KitchenEnv
 from taskcond.tasks.base import PrimitiveTask
-from taskcond.tasks.env import KitchenEnv
 from taskcond.tasks.skills import CLOSED, current, grasp_of
 from taskcond.tasks.trajectory import Waypoint
 
