@@ -185,7 +185,7 @@ class KitchenScene:
         self._load("box", cfg.box, (*cfg.box_origin, 0.0), fixed=True)
         self._load("microwave", cfg.microwave, (*cfg.microwave_origin, 0.0), fixed=True)
         cab = self.bodies["cabinet"]
-        for name, link in (("bottom drawer", 0), ("top drawer", 1)):
+        for link, (name, _) in enumerate(cfg.cabinet.drawer_links):
             self.bodies[name], self.links[name] = cab, link
             self.joints[name] = ContainerJoint(name, cab, link, 0.0, cfg.cabinet.travel, 0.5)
         self.links["box"] = -1
@@ -425,7 +425,7 @@ class KitchenScene:
             return fixed
         it = self.interiors[container]
         body = self.bodies[container]
-        on_base = it.link in ("base", "carcass", "shell")
+        on_base = self.links[container] < 0
         if on_base:
             pos, orn = self.pose(container)
         else:
