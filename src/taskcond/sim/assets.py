@@ -192,8 +192,7 @@ def _joint_xml(j: Joint) -> str:
 
 def urdf_text(name: str, links: list[Link], joints: list[Joint] | None = None) -> str:
     """URDF XML of a robot made of ``links`` (the first is the base) connected by ``joints``, one element
-    per line: a 24-segment bowl written on one line (8,827 characters) did not load in PyBullet
-    (``XML_ERROR_PARSING_ATTRIBUTE``), the same text with one element per line did."""
+    per line (PyBullet's parser refused a long one-line URDF: BENCHMARKS.md, "LHT2* mended")."""
     body = "\n".join([*(_link_xml(link) for link in links), *(_joint_xml(j) for j in joints or [])])
     return f'<?xml version="1.0"?>\n<robot name="{name}">\n{body}\n</robot>\n'
 
@@ -257,9 +256,8 @@ class BottleSpec:
 class VesselSpec:
     """An open vessel (bowl or mug): a polygonal ring wall of ``segments`` boxes on a round base.
 
-    24 segments: with 12 (each as long as a finger pad is wide), a bowl that turned a few degrees in the
-    opening hand caught the pads' edges on the corners between two boxes and wedged them shut (LHT2*
-    failed in 4 of 100 seeds, LHT2 in 1); with 24 the same seeds pass.
+    24 segments, shorter than a finger pad is wide, so that a vessel turning in the opening hand does not
+    catch the pads on the corners between two boxes (BENCHMARKS.md, "LHT2* mended").
 
     ``handle`` adds a mug handle on the -y side.
     """

@@ -176,10 +176,8 @@ REGRIPS = 2
 def release_plans(env: KitchenEnv, rise: float = 0.10) -> Iterator[Trajectory]:
     """Open the fingers where the hand is; while they stay jammed on the object (opening below
     :data:`FREED_WIDTH`, at most :data:`REGRIPS` times) close them again, which presses the object's wall
-    flat between the pads, and reopen; then move up by ``rise`` m.
-
-    A bowl that turns a few degrees in the opening hand can wedge its wall across the pads (LHT2*: the
-    fingers stuck at 12 mm, and the rising hand lifted the bowl out of the drawer)."""
+    flat between the pads, and reopen; then move up by ``rise`` m. (A vessel turning in the opening hand
+    can wedge its wall across the pads: BENCHMARKS.md, "LHT2* mended".)"""
     pos, orn, _ = current(env)
     yield plan(env, [Waypoint(pos, orn, OPEN, GRIP_TIME)])
     for _ in range(REGRIPS):
