@@ -215,9 +215,6 @@ def bottom_to_com(env: KitchenEnv, name: str) -> float:
 
 
 # ----------------------------------------------------------------------------------------- furniture
-LID_OVERSHOOT = 0.04
-"""Angle (rad) past the lid's stop (:attr:`BoxSpec.open_angle`) where :func:`lid_open`'s arc ends: the hand
-lags its commanded arc, and a lid lifted only to its stop can stop short of vertical and fall back shut."""
 LIP_REACH_BELOW = 0.014
 """Depth (m) below the lip's underside of the end-effector point (between the closed fingertips) that lifts
 the lid: the fingertips' upper faces then bear on the lip."""
@@ -263,7 +260,7 @@ def drawer_motion(env: KitchenEnv, drawer: str, to_fraction: float) -> list[Wayp
 
 def lid_open(env: KitchenEnv) -> list[Waypoint]:
     """Slide the closed fingertips (hand pointing +x) under the lid's lip and lift it along its arc past
-    vertical to :data:`LID_OVERSHOOT` beyond its stop; gravity lays it on the stop."""
+    vertical to its stop (:attr:`BoxSpec.open_angle`, the hinge's limit), where gravity holds it."""
     spec = _spec(env.scene, "box", BoxSpec)
     frame = env.scene.pose("box")
     lip_x, _, lip_z = spec.lip_center
@@ -272,7 +269,7 @@ def lid_open(env: KitchenEnv) -> list[Waypoint]:
     start = spec.hinge.to_world(frame, 0.0, under)
     arc = [
         Waypoint(spec.hinge.to_world(frame, a, under), orn, CLOSED, 0.12)
-        for a in np.linspace(0.05, spec.open_angle + LID_OVERSHOOT, 24)
+        for a in np.linspace(0.05, spec.open_angle, 24)
     ]
     end = arc[-1].position
     return [
