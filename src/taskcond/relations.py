@@ -78,7 +78,8 @@ class RelationThresholds:
 
     One set serves the judge and the perceiver: ground-truth boxes of resting objects never sink more than
     a few millimetres into each other, so the tolerances that absorb 5 mm perception noise change no
-    ground-truth answer of the suite (BENCHMARKS.md, "Relations").
+    ground-truth answer of the suite (BENCHMARKS.md, "Relations: one definition for the judge and the
+    perceiver").
 
     Attributes:
         inside_margin: ``A inside B`` needs A's centre within B's box grown by this on every side ...
