@@ -83,7 +83,8 @@ class RelationThresholds:
 
     Attributes:
         inside_margin: ``A inside B`` needs A's centre within B's box grown by this on every side ...
-        inside_fraction: ... and at least this fraction of A's box volume inside B's box.
+        inside_fraction: ... and at least this fraction of A's box volume inside B's box (REFLECT's
+            ``INSIDE_THRESH``).
         above_overlap: ``A above B`` needs the footprints to overlap by at least this fraction of the smaller
             footprint's area ...
         above_tolerance: ... and A's bottom no lower than this below B's top (resting contact, noise).
