@@ -20,13 +20,13 @@ from taskcond.conditions import (
     TaskCondition,
     parse_predicate,
 )
+from taskcond.relations import RelationThresholds
 from taskcond.sim.camera import CameraSpec, render
 from taskcond.sim.description import ContainerJoint, GripperSpec, NamedBody, SceneDescription
 from taskcond.sim.perception import (
     ObjectBox,
     Perception,
     PerceptionConfig,
-    RelationThresholds,
     spatial_relations,
 )
 from taskcond.sim.shapes import add_box, add_cylinder, add_tray
@@ -219,35 +219,35 @@ def shifted(box: ObjectBox, offset: Sequence[float]) -> ObjectBox:
             RelationThresholds(above_tolerance=0.011),
             RelationThresholds(above_tolerance=0.009),
         ),
-        # A's centre 10 cm ahead of B's along -x, the boxes touching
+        # A's back face 1 cm behind B's front face (along -x)
         (
             {
-                "a": make_box("a", (0.0, 0.0, 0.0), (0.1, 0.1, 0.1)),
+                "a": make_box("a", (0.0, 0.0, 0.0), (0.11, 0.1, 0.1)),
                 "b": make_box("b", (0.1, 0.0, 0.0), (0.2, 0.1, 0.1)),
             },
             rel("a", "in front of", "b"),
-            RelationThresholds(front_min_offset=0.099),
-            RelationThresholds(front_min_offset=0.101),
+            RelationThresholds(front_max_overlap=0.011),
+            RelationThresholds(front_max_overlap=0.009),
         ),
         # lateral overlap 30 % of the narrower box
         (
             {
                 "a": make_box("a", (0.0, 0.07, 0.0), (0.1, 0.17, 0.1)),
-                "b": make_box("b", (0.2, 0.0, 0.0), (0.3, 0.1, 0.1)),
+                "b": make_box("b", (0.15, 0.0, 0.0), (0.25, 0.1, 0.1)),
             },
             rel("a", "in front of", "b"),
             RelationThresholds(front_lateral_overlap=0.29),
             RelationThresholds(front_lateral_overlap=0.31),
         ),
-        # 20 cm free gap between A's back and B's front
+        # 15 cm free gap between A's back and B's front
         (
             {
                 "a": make_box("a", (0.0, 0.0, 0.0), (0.1, 0.1, 0.1)),
-                "b": make_box("b", (0.3, 0.0, 0.0), (0.4, 0.1, 0.1)),
+                "b": make_box("b", (0.25, 0.0, 0.0), (0.35, 0.1, 0.1)),
             },
             rel("a", "in front of", "b"),
-            RelationThresholds(front_max_gap=0.21),
-            RelationThresholds(front_max_gap=0.19),
+            RelationThresholds(front_max_gap=0.16),
+            RelationThresholds(front_max_gap=0.14),
         ),
     ],
 )
@@ -508,8 +508,8 @@ def test_one_finger_touching_is_not_a_grasp(client: int) -> None:
 def test_grasp_opposition_threshold(client: int) -> None:
     scene, panda = grasp_scene(client)
     close_fingers(client, panda)
-    impossible = RelationThresholds(grasp_opposition=1.01)
-    info = Perception(scene, PerceptionConfig(check_visibility=False, thresholds=impossible)).observe(0)
+    config = PerceptionConfig(check_visibility=False, grasp_opposition=1.01)
+    info = Perception(scene, config).observe(0)
     assert GripperState(None) in info.predicates
 
 
@@ -549,5 +549,5 @@ def test_contact_distance_threshold(client: int) -> None:
     scene = SceneDescription(client, [NamedBody("table", table, kind="furniture"), NamedBody("cube", cube)])
     config = PerceptionConfig(check_visibility=False)
     assert Perception(scene, config).observe(0).collisions == {Collision("cube", "table")}
-    penetrating = replace(config, thresholds=RelationThresholds(contact_distance=-0.001))
+    penetrating = replace(config, contact_distance=-0.001)
     assert Perception(scene, penetrating).observe(0).contacts == []

@@ -30,9 +30,6 @@ REACH = 0.95
 flange plus the hand; farther goals are refused."""
 SHOULDER = np.array([0.0, 0.0, 0.333])
 """Position (m, world frame) of the Panda's shoulder (joint 2) with the base at the origin."""
-CONTACT_DISTANCE = 0.002
-"""Contact points farther apart than this (m) are not contacts (PyBullet keeps points up to its
-contact-breaking threshold); as :class:`~taskcond.sim.perception.RelationThresholds`."""
 VIDEO_EVERY = 2
 """Record every n-th control step."""
 KINOVA_STILL = 1e-4
@@ -76,6 +73,8 @@ class KitchenWorld:
             description, PerceptionConfig(noise_sigma=noise_sigma, check_visibility=False)
         )
         self._owner = self.perception.owners
+        self._contact_distance = self.perception.config.contact_distance
+        """Contact points farther apart (m) are not contacts: the perceiver's rule."""
         self._rng = np.random.default_rng(seed)
         self._objects = tuple(b.name for b in description.bodies if b.kind != "robot")
         self._free = (
@@ -125,7 +124,7 @@ class KitchenWorld:
         names: dict[frozenset[str], tuple[str, str]] = {}
         for pt in points:
             a, b = self._owner.get((pt[1], pt[3])), self._owner.get((pt[2], pt[4]))
-            if a is None or b is None or a == b or pt[8] > CONTACT_DISTANCE:
+            if a is None or b is None or a == b or pt[8] > self._contact_distance:
                 continue
             key = frozenset((a, b))
             names.setdefault(key, (min(a, b), max(a, b)))

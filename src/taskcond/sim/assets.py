@@ -25,9 +25,13 @@ import hashlib
 import math
 import os
 import tempfile
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Literal
+
+import numpy as np
+from scipy.spatial.transform import Rotation
 
 RGBA = tuple[float, float, float, float]
 Vec3 = tuple[float, float, float]
@@ -91,6 +95,35 @@ class Interior:
     center: Vec3
     half_extents: Vec3
     round: bool = False
+
+
+Pose = tuple[Sequence[float], Sequence[float]]
+"""A placed frame: position (3,) m and quaternion (4,) xyzw, world frame (``KitchenScene.pose``)."""
+
+
+def to_world(frame: Pose, local: Sequence[float]) -> np.ndarray:
+    """World position (3,) of the point ``local`` (m) of a frame placed at ``frame``."""
+    position, orientation = frame
+    return np.asarray(position, float) + Rotation.from_quat(orientation).apply(np.asarray(local, float))
+
+
+@dataclass(frozen=True)
+class Hinge:
+    """A revolute joint in its parent link's frame: ``origin`` (m), a point of its axis and the origin of the
+    child link's frame, and the unit ``axis``; the child turns by the joint angle about it (right-handed)."""
+
+    origin: Vec3
+    axis: Vec3
+
+    def axis_in_world(self, frame: Pose) -> tuple[np.ndarray, np.ndarray]:
+        """A point (3,) of the axis and the axis direction (3,), world frame, with the parent at ``frame``."""
+        return to_world(frame, self.origin), Rotation.from_quat(frame[1]).apply(np.asarray(self.axis, float))
+
+    def to_world(self, frame: Pose, angle: float, local: Sequence[float]) -> np.ndarray:
+        """World position (3,) of the point ``local`` (m, child link frame) with the joint at ``angle`` (rad)
+        and the parent's frame placed at ``frame``."""
+        turned = Rotation.from_rotvec(angle * np.asarray(self.axis, float)).apply(np.asarray(local, float))
+        return to_world(frame, np.asarray(self.origin, float) + turned)
 
 
 @dataclass(frozen=True)
@@ -159,8 +192,7 @@ def _joint_xml(j: Joint) -> str:
 
 def urdf_text(name: str, links: list[Link], joints: list[Joint] | None = None) -> str:
     """URDF XML of a robot made of ``links`` (the first is the base) connected by ``joints``, one element
-    per line: a 24-segment bowl written on one line (8,827 characters) did not load in PyBullet
-    (``XML_ERROR_PARSING_ATTRIBUTE``), the same text with one element per line did."""
+    per line (PyBullet's parser refused a long one-line URDF: BENCHMARKS.md, "LHT2* mended")."""
     body = "\n".join([*(_link_xml(link) for link in links), *(_joint_xml(j) for j in joints or [])])
     return f'<?xml version="1.0"?>\n<robot name="{name}">\n{body}\n</robot>\n'
 
@@ -224,9 +256,8 @@ class BottleSpec:
 class VesselSpec:
     """An open vessel (bowl or mug): a polygonal ring wall of ``segments`` boxes on a round base.
 
-    24 segments: with 12 (each as long as a finger pad is wide), a bowl that turned a few degrees in the
-    opening hand caught the pads' edges on the corners between two boxes and wedged them shut (LHT2*
-    failed in 4 of 100 seeds, LHT2 in 1); with 24 the same seeds pass.
+    24 segments, shorter than a finger pad is wide, so that a vessel turning in the opening hand does not
+    catch the pads on the corners between two boxes (BENCHMARKS.md, "LHT2* mended").
 
     ``handle`` adds a mug handle on the -y side.
     """
@@ -244,8 +275,13 @@ class VesselSpec:
     def inner_radius(self) -> float:
         return self.outer_radius - self.wall
 
+    @property
+    def wall_radius(self) -> float:
+        """Radius (m) of the middle of the wall, where the wall's boxes stand and a wall grasp closes."""
+        return self.outer_radius - self.wall / 2
+
     def links(self) -> list[Link]:
-        r = self.outer_radius - self.wall / 2
+        r = self.wall_radius
         seg = 2 * self.outer_radius * math.tan(math.pi / self.segments) + 0.002
         wall_h = self.height - self.base
         shapes = [Shape("cylinder", (self.outer_radius, self.base), (0, 0, self.base / 2), rgba=self.rgba)]
@@ -327,9 +363,26 @@ class BoxSpec:
     lid: float = 0.01
     lip: Vec3 = (0.035, 0.10, 0.01)
     open_angle: float = 1.68
+    """Upper limit (rad) of the lid's hinge, its stop and its fully open position: past vertical (pi/2), so
+    that gravity holds an open lid on the stop."""
     lid_mass: float = 0.15
     rgba: RGBA = (0.72, 0.5, 0.3, 1.0)
     lid_rgba: RGBA = (0.62, 0.42, 0.25, 1.0)
+
+    @property
+    def hinge(self) -> Hinge:
+        """The lid's hinge in the base frame: along y at the back (+x) top edge; the lid frame's origin."""
+        return Hinge((self.size[0] / 2, 0.0, self.size[2]), (0.0, 1.0, 0.0))
+
+    @property
+    def lip_center(self) -> Vec3:
+        """Centre (m, lid frame) of the lip handle, beyond the lid's front edge."""
+        return (-self.size[0] - self.lip[0] / 2, 0.0, self.lid / 2)
+
+    @property
+    def lid_front_top(self) -> Vec3:
+        """Middle (m, lid frame) of the front edge of the lid's top face."""
+        return (-self.size[0], 0.0, self.lid)
 
     def links(self) -> list[Link]:
         dx, dy, dz = self.size
@@ -343,15 +396,13 @@ class BoxSpec:
         )
         lid = (
             Shape("box", (dx, dy, self.lid), (-dx / 2, 0, self.lid / 2), rgba=self.lid_rgba),
-            Shape("box", self.lip, (-dx - self.lip[0] / 2, 0, self.lid / 2), rgba=(0.3, 0.2, 0.1, 1.0)),
+            Shape("box", self.lip, self.lip_center, rgba=(0.3, 0.2, 0.1, 1.0)),
         )
         return [Link("base", base, 0.0), Link("lid", lid, self.lid_mass)]
 
     def joints(self) -> list[Joint]:
-        dx, _, dz = self.size
-        return [
-            Joint("lid_hinge", "revolute", "base", "lid", (dx / 2, 0, dz), (0, 1, 0), 0.0, self.open_angle)
-        ]
+        hinge = self.hinge
+        return [Joint("lid_hinge", "revolute", "base", "lid", hinge.origin, hinge.axis, 0.0, self.open_angle)]
 
     def interior(self) -> Interior:
         dx, dy, dz = self.size
@@ -375,20 +426,34 @@ class CabinetSpec:
     rgba: RGBA = (0.85, 0.6, 0.35, 1.0)
     drawer_rgba: RGBA = (0.75, 0.75, 0.78, 1.0)
 
+    drawer_links: tuple[tuple[str, str], ...] = (
+        ("bottom drawer", "bottom_drawer"),
+        ("top drawer", "top_drawer"),
+    )
+    """(condition name, URDF link name) of each drawer, bottom first: the order of the drawer joints, so
+    the k-th drawer is PyBullet link k of the cabinet."""
+    sheet: float = 0.008
+    """Thickness (m) of a drawer's floor, sides and back."""
+
     def drawer_bottoms(self) -> tuple[float, float]:
         """Heights (m, cabinet frame) of the bottom faces of the bottom and the top drawer."""
         gap = (self.height - 3 * self.wall - 2 * self.drawer_height) / 2
         first = self.wall + gap / 2
         return first, first + self.drawer_height + self.wall + gap
 
-    def handle_height(self, which: Literal["top", "bottom"]) -> float:
-        """Height (m, cabinet frame) of the centre of a drawer's handle."""
-        z0 = self.drawer_bottoms()[0 if which == "bottom" else 1]
-        return z0 + self.drawer_height / 2
+    @property
+    def drawer_size(self) -> Vec3:
+        """Outer depth (x), width (y) and height (z) of a drawer's tray (m), front panel and handle apart."""
+        return self.depth - self.wall - 0.02, self.width - 2 * self.wall - 0.01, self.drawer_height
+
+    @property
+    def handle_center(self) -> Vec3:
+        """Centre (m, drawer link frame: centre of the front's bottom edge) of a drawer's vertical bar."""
+        return (-self.handle_standoff, 0.0, self.drawer_height / 2)
 
     def _drawer(self, name: str) -> Link:
-        w, d, h = self.width - 2 * self.wall - 0.01, self.depth - self.wall - 0.02, self.drawer_height
-        t = 0.008
+        d, w, h = self.drawer_size
+        t = self.sheet
         c = self.drawer_rgba
         s = self.handle_standoff
         shapes = (
@@ -397,7 +462,7 @@ class CabinetSpec:
             Shape("box", (d, t, h), (d / 2, -w / 2 + t / 2, h / 2), rgba=c),
             Shape("box", (t, w, h), (d - t / 2, 0, h / 2), rgba=c),
             Shape("box", (0.015, self.width - 0.01, h + 0.015), (-0.0075, 0, h / 2), rgba=self.rgba),
-            Shape("box", (0.02, 0.02, self.handle_length), (-s, 0, h / 2), rgba=(0.15, 0.15, 0.15, 1.0)),
+            Shape("box", (0.02, 0.02, self.handle_length), self.handle_center, rgba=(0.15, 0.15, 0.15, 1.0)),
             Shape(
                 "box",
                 (s, 0.012, 0.012),
@@ -425,40 +490,30 @@ class CabinetSpec:
             Shape("box", (d, t, h), (d / 2, -w / 2 + t / 2, h / 2), rgba=self.rgba),
             Shape("box", (t, w, h), (d - t / 2, 0, h / 2), rgba=self.rgba),
         )
-        return [Link("carcass", carcass, 0.0), self._drawer("bottom_drawer"), self._drawer("top_drawer")]
+        return [Link("carcass", carcass, 0.0), *(self._drawer(link) for _, link in self.drawer_links)]
 
     def joints(self) -> list[Joint]:
-        z_bottom, z_top = self.drawer_bottoms()
         return [
             Joint(
-                "bottom_slide",
+                f"{link.removesuffix('_drawer')}_slide",
                 "prismatic",
                 "carcass",
-                "bottom_drawer",
-                (0.0, 0, z_bottom),
+                link,
+                (0.0, 0, z),
                 (-1, 0, 0),
                 0.0,
                 self.travel,
-            ),
-            Joint(
-                "top_slide",
-                "prismatic",
-                "carcass",
-                "top_drawer",
-                (0.0, 0, z_top),
-                (-1, 0, 0),
-                0.0,
-                self.travel,
-            ),
+            )
+            for (_, link), z in zip(self.drawer_links, self.drawer_bottoms(), strict=True)
         ]
 
     def interiors(self) -> dict[str, Interior]:
-        w, d, h = self.width - 2 * self.wall - 0.01, self.depth - self.wall - 0.02, self.drawer_height
-        t = 0.008
-        out = {}
-        for name, link in (("bottom drawer", "bottom_drawer"), ("top drawer", "top_drawer")):
-            out[name] = Interior(link, (d / 2, 0, t + (h - t) / 2), (d / 2 - t, w / 2 - t, (h - t) / 2))
-        return out
+        d, w, h = self.drawer_size
+        t = self.sheet
+        return {
+            name: Interior(link, (d / 2, 0, t + (h - t) / 2), (d / 2 - t, w / 2 - t, (h - t) / 2))
+            for name, link in self.drawer_links
+        }
 
 
 @dataclass(frozen=True)
@@ -472,6 +527,8 @@ class MicrowaveSpec:
     wall: float = 0.01
     door: float = 0.015
     fin: Vec3 = (0.012, 0.05, 0.03)
+    fin_inset: float = 0.01
+    """Distance (m) from the fin's outer end to the door's free edge."""
     open_angle: float = 1.6
     door_mass: float = 0.3
     rgba: RGBA = (0.25, 0.25, 0.27, 1.0)
@@ -485,27 +542,28 @@ class MicrowaveSpec:
             Shape("box", (d, t, h), (d / 2, -w / 2 + t / 2, h / 2), rgba=self.rgba),
             Shape("box", (t, w, h), (d - t / 2, 0, h / 2), rgba=self.rgba),
         )
-        _, fy, fz = self.fin
         door = (
             Shape("box", (self.door, w, h), (-self.door / 2, w / 2, h / 2), rgba=(0.12, 0.12, 0.14, 1.0)),
-            Shape(
-                "box", self.fin, (-self.door / 2, w - fy / 2 - 0.01, h + fz / 2), rgba=(0.7, 0.7, 0.7, 1.0)
-            ),
+            Shape("box", self.fin, self.fin_center, rgba=(0.7, 0.7, 0.7, 1.0)),
         )
         return [Link("shell", shell, 0.0), Link("door", door, self.door_mass)]
 
+    @property
+    def hinge(self) -> Hinge:
+        """The door's hinge in the shell frame: vertical, at the front right (-y) corner; the door's frame
+        sits on it."""
+        return Hinge((0.0, -self.width / 2, 0.0), (0.0, 0.0, 1.0))
+
+    @property
+    def fin_center(self) -> Vec3:
+        """Centre (m, door frame) of the fin handle on the door's top edge, near its free end."""
+        _, fy, fz = self.fin
+        return (-self.door / 2, self.width - fy / 2 - self.fin_inset, self.height + fz / 2)
+
     def joints(self) -> list[Joint]:
+        hinge = self.hinge
         return [
-            Joint(
-                "door_hinge",
-                "revolute",
-                "shell",
-                "door",
-                (0.0, -self.width / 2, 0.0),
-                (0, 0, 1),
-                0.0,
-                self.open_angle,
-            )
+            Joint("door_hinge", "revolute", "shell", "door", hinge.origin, hinge.axis, 0.0, self.open_angle)
         ]
 
     def interior(self) -> Interior:

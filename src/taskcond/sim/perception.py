@@ -8,7 +8,8 @@ and :meth:`Perception.observe` returns an :class:`EnvironmentInfo` with
   Gaussian noise on each coordinate of the centre and the box (``mode="ground_truth"``) — or measured from
   the merged point clouds of the cameras (``mode="point_cloud"``);
 * **spatial relations** ``inside``, ``above``, ``below``, ``in front of`` computed from centres and boxes
-  with REFLECT-style rules (Liu et al. 2023), see :func:`spatial_relations` and :class:`RelationThresholds`;
+  by the rules of :mod:`taskcond.relations` (after REFLECT, Liu et al. 2023), the same the suite's judge
+  uses, see :func:`spatial_relations`;
 * **object states**: ``gripper grasping X`` / ``gripper not grasping`` from finger contacts, ``X open`` /
   ``X closed`` from the container's joint position (open vessels without a joint are always open);
 * **collisions** (:class:`Contact`) between named bodies with their world positions.
@@ -35,7 +36,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Iterable, Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Literal
 
 import numpy as np
@@ -46,9 +47,9 @@ from taskcond.conditions import (
     ContainerState,
     GripperState,
     Predicate,
-    Relation,
     SpatialRelation,
 )
+from taskcond.relations import FRONT, THRESHOLDS, Box, RelationThresholds, relations
 from taskcond.sim.camera import CameraSpec, RGBDFrame, render
 from taskcond.sim.cloth import ClothSpec, cloth_nodes, finger_frame, nodes_between_fingers
 from taskcond.sim.description import GripperSpec, SceneDescription
@@ -90,40 +91,12 @@ class ObjectBox:
         return self.upper - self.lower
 
 
-@dataclass(frozen=True)
-class RelationThresholds:
-    """Named constants of the spatial-relation and contact rules (lengths in metres, fractions in [0, 1]).
-
-    Attributes:
-        inside_margin: ``A inside B`` needs A's centre within B's box grown by this margin on every side.
-        inside_fraction: ... and at least this fraction of A's box volume inside B's box (REFLECT's
-            ``INSIDE_THRESH``).
-        above_overlap: ``A above B`` needs the horizontal footprints to overlap by at least this fraction of
-            the smaller footprint's area ...
-        above_tolerance: ... and A's bottom no lower than this distance below B's top (resting contact,
-            measurement error), with A's centre higher than B's.
-        front_min_offset: ``A in front of B`` needs A's centre at least this far ahead of B's along the
-            scene's front direction ...
-        front_lateral_overlap: ... the boxes' extents across the front direction (horizontal, lateral) to
-            overlap by at least this fraction of the narrower one ...
-        front_max_gap: ... the free gap between A's back face and B's front face to be at most this, and
-            neither object above, below or inside the other.
-        grasp_opposition: the gripper grasps X when X touches both finger links and the mean contact normals
-            of the two fingers oppose each other: ``dot(n1, n2) <= -grasp_opposition`` (X is squeezed
-            between the fingers).
-        contact_distance: contact points farther apart than this (PyBullet keeps manifold points up to the
-            contact-breaking threshold) are not contacts.
-    """
-
-    inside_margin: float = 0.01
-    inside_fraction: float = 0.5
-    above_overlap: float = 0.5
-    above_tolerance: float = 0.015
-    front_min_offset: float = 0.02
-    front_lateral_overlap: float = 0.25
-    front_max_gap: float = 0.3
-    grasp_opposition: float = 0.5
-    contact_distance: float = 0.002
+CONTACT_DISTANCE = 0.002
+"""Contact points farther apart than this (m) are not contacts: PyBullet keeps manifold points up to its
+contact-breaking threshold."""
+GRASP_OPPOSITION = 0.5
+"""A gripper grasps X when X touches both finger links and the mean contact normals of the two fingers
+oppose: ``dot(n1, n2) <= -GRASP_OPPOSITION`` (X is squeezed between the fingers)."""
 
 
 @dataclass(frozen=True)
@@ -136,7 +109,9 @@ class PerceptionConfig:
         noise_sigma: standard deviation in metres of the Gaussian noise added to each coordinate of every
             object's centre and box corners (paper §III-A.2); 0 for none. Applied in both modes.
         cameras: the semantic RGB-D cameras.
-        thresholds: constants of the relation, grasp and contact rules.
+        thresholds: constants of the spatial-relation rules (:mod:`taskcond.relations`).
+        grasp_opposition: see :data:`GRASP_OPPOSITION`.
+        contact_distance: see :data:`CONTACT_DISTANCE`.
         front: world direction pointing out of the scene towards the robot/viewer; ``A in front of B`` means
             A is further along it than B. Only its horizontal part is used. Default ``-x``: a robot at the
             origin facing +x looks at a table at positive x.
@@ -148,8 +123,10 @@ class PerceptionConfig:
     mode: Mode = "ground_truth"
     noise_sigma: float = 0.0
     cameras: tuple[CameraSpec, ...] = DEFAULT_CAMERAS
-    thresholds: RelationThresholds = field(default_factory=RelationThresholds)
-    front: tuple[float, float, float] = (-1.0, 0.0, 0.0)
+    thresholds: RelationThresholds = THRESHOLDS
+    grasp_opposition: float = GRASP_OPPOSITION
+    contact_distance: float = CONTACT_DISTANCE
+    front: tuple[float, float, float] = FRONT
     check_visibility: bool = True
     min_visible_pixels: int = 10
 
@@ -220,27 +197,12 @@ class EnvironmentInfo:
 
 def spatial_relations(
     boxes: Mapping[str, ObjectBox],
-    thresholds: RelationThresholds,
-    front: tuple[float, float, float] = (-1.0, 0.0, 0.0),
+    thresholds: RelationThresholds = THRESHOLDS,
+    front: tuple[float, float, float] = FRONT,
     grippers: Iterable[str] = ("gripper",),
 ) -> frozenset[SpatialRelation]:
-    """The spatial relations between all ordered pairs of boxes (paper §III-A.2, rules after REFLECT).
-
-    With A's and B's centres ``cA``, ``cB`` and boxes, ``t = thresholds`` and ``f`` the unit horizontal front
-    direction:
-
-    * ``A inside B``: ``cA`` lies in B's box grown by ``t.inside_margin``, at least ``t.inside_fraction``
-      of A's box volume lies in B's box, and A's box is not larger than B's.
-    * ``A inside G`` for a gripper G (whose box, the fingers', is smaller than what it holds): the fingers
-      are around A, i.e. G's centre (its grasp point) lies in A's box grown by ``t.inside_margin`` and
-      along at least one axis G's box spans A's box from side to side. ``G inside A`` is dropped when
-      ``A inside G`` holds.
-    * ``A above B``: the horizontal footprints overlap by ``>= t.above_overlap`` of the smaller one, A's
-      bottom is at least B's top minus ``t.above_tolerance``, and ``cA`` is higher than ``cB``.
-    * ``A below B`` exactly when ``B above A``.
-    * ``A in front of B``: ``(cA - cB)·f >= t.front_min_offset``; the boxes' lateral extents (across ``f``)
-      overlap by ``>= t.front_lateral_overlap`` of the narrower one; the gap from A's back face to B's front
-      face along ``f`` is ``<= t.front_max_gap``; and neither is above, below or inside the other.
+    """The spatial relations between all ordered pairs of boxes (paper §III-A.2), by the one definition of
+    each relation in :mod:`taskcond.relations` (rules after REFLECT).
 
     Args:
         boxes: object boxes by name (world frame, metres).
@@ -248,72 +210,15 @@ def spatial_relations(
         front: direction towards the robot/viewer; only its horizontal part counts.
         grippers: names of the boxes that are grippers.
     """
-    names = list(boxes)
-    if len(names) < 2:
-        return frozenset()
-    lo = np.stack([boxes[n].lower for n in names])
-    hi = np.stack([boxes[n].upper for n in names])
-    c = np.stack([boxes[n].center for n in names])
-    size = np.maximum(hi - lo, _EPS)
     gripper_names = set(grippers)
-    is_grip = np.array([n in gripper_names for n in names])
-    t = thresholds
-    off_diagonal = ~np.eye(len(names), dtype=bool)
-
-    # inter[i, j]: (3,) edge lengths of the intersection of boxes i and j.
-    inter = np.clip(np.minimum(hi[:, None], hi[None]) - np.maximum(lo[:, None], lo[None]), 0.0, None)
-
-    # centre_in[i, j]: centre of i inside box j grown by the margin.
-    m = t.inside_margin
-    centre_in = np.all((c[:, None] >= lo[None] - m) & (c[:, None] <= hi[None] + m), axis=2)
-    volume = size.prod(axis=1)
-    volume_fraction = inter.prod(axis=2) / volume[:, None]
-    inside = centre_in & (volume_fraction >= t.inside_fraction) & (volume[:, None] <= volume[None])
-    # spans[i, j]: along some axis box i reaches past box j on both sides.
-    spans = np.any((lo[:, None] <= lo[None]) & (hi[:, None] >= hi[None]), axis=2)
-    inside[:, is_grip] = (centre_in & spans).T[:, is_grip]
-    inside &= ~(is_grip[:, None] & inside.T) & off_diagonal
-
-    footprint = size[:, 0] * size[:, 1]
-    footprint_fraction = inter[..., 0] * inter[..., 1] / np.minimum(footprint[:, None], footprint[None])
-    above = (
-        (footprint_fraction >= t.above_overlap)
-        & (lo[:, None, 2] >= hi[None, :, 2] - t.above_tolerance)
-        & (c[:, None, 2] > c[None, :, 2])
-        & off_diagonal
+    return relations(
+        {
+            name: Box.of(box.lower, box.upper, box.center, gripper=name in gripper_names)
+            for name, box in boxes.items()
+        },
+        thresholds,
+        front,
     )
-    below = above.T
-
-    f = np.array([front[0], front[1], 0.0])
-    f /= np.linalg.norm(f)
-    lateral = np.array([-f[1], f[0], 0.0])
-    mid, half = (lo + hi) / 2.0, size / 2.0
-    along, along_half = mid @ f, half @ np.abs(f)
-    across, across_half = mid @ lateral, half @ np.abs(lateral)
-    lateral_overlap = np.minimum(across[:, None] + across_half[:, None], across[None] + across_half[None]) - (
-        np.maximum(across[:, None] - across_half[:, None], across[None] - across_half[None])
-    )
-    narrower = 2.0 * np.minimum(across_half[:, None], across_half[None])
-    gap = (along[:, None] - along_half[:, None]) - (along[None] + along_half[None])
-    stacked = above | below | inside | inside.T
-    in_front = (
-        ((c[:, None] - c[None]) @ f >= t.front_min_offset)
-        & (lateral_overlap >= t.front_lateral_overlap * narrower)
-        & (gap <= t.front_max_gap)
-        & ~stacked
-        & off_diagonal
-    )
-
-    relations: set[SpatialRelation] = set()
-    for relation, matrix in (
-        (Relation.INSIDE, inside),
-        (Relation.ABOVE, above),
-        (Relation.BELOW, below),
-        (Relation.IN_FRONT_OF, in_front),
-    ):
-        for i, j in zip(*np.nonzero(matrix), strict=True):
-            relations.add(SpatialRelation(names[i], relation, names[j]))
-    return frozenset(relations)
 
 
 class Perception:
@@ -485,7 +390,7 @@ class Perception:
     def _contact_points(self) -> _ContactPoints:
         raw = p.getContactPoints(physicsClientId=self._client)
         pts = _ContactPoints.from_pybullet(raw, self._owner)
-        return pts.select(pts.distance <= self.config.thresholds.contact_distance)
+        return pts.select(pts.distance <= self.config.contact_distance)
 
     def _gripper_states(self, points: _ContactPoints) -> list[GripperState]:
         """``gripper grasping X`` when X touches both finger links with opposing normals, else not grasping.
@@ -510,7 +415,7 @@ class Perception:
                 (per_finger[0][name][1] + per_finger[1][name][1], name)
                 for name in per_finger[0].keys() & per_finger[1].keys()
                 if _unit(per_finger[0][name][0]) @ _unit(per_finger[1][name][0])
-                <= -self.config.thresholds.grasp_opposition
+                <= -self.config.grasp_opposition
             ]
             soft = None if grasped else self._soft_grasped(gripper)
             states.append(GripperState(max(grasped)[1] if grasped else soft, gripper.name))

@@ -12,10 +12,8 @@ which acts as joint friction; drawers, lid and door only move when the gripper p
 
 from __future__ import annotations
 
-import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
-from functools import cached_property
 from itertools import chain
 from operator import itemgetter
 
@@ -115,8 +113,8 @@ class SceneConfig:
 def dual_arm_config(base: SceneConfig | None = None, cloth: ClothSpec | None = None) -> SceneConfig:
     """The scene of the dual-arm and cloth tasks (PT6 Fold, grasp cloth, LHT4): ``base`` (default kitchen)
     with the Kinova and the cloth, without the free objects whose nominal placement lies on the cloth or
-    within 16 cm of it (bowl, toothpaste, cube and bottle in the default kitchen: the spatula carried onto
-    the cloth knocked the bottle over in 3 of 20 LHT4 episodes)."""
+    within 16 cm of it (bowl, toothpaste, cube and bottle in the default kitchen), so that nothing stands
+    where the spatula is carried onto the cloth (BENCHMARKS.md, "Cloth, dual-arm fold, LHT4")."""
     base = base or SceneConfig()
     spec = cloth or base.cloth or ClothSpec()
     half = spec.size / 2 + 0.16
@@ -143,26 +141,6 @@ class WorldInterior:
     half_extents: np.ndarray
     rotation: np.ndarray
     round: bool
-
-    @cached_property
-    def _floats(self) -> tuple[list[float], list[list[float]], list[float]]:
-        """``center``, ``rotation`` and ``half_extents`` as Python floats (a fixed interior is reused)."""
-        return self.center.tolist(), self.rotation.tolist(), self.half_extents.tolist()
-
-    def contains(self, point: np.ndarray | Sequence[float], margin: float = 0.0) -> bool:
-        """Whether ``point`` (3,) world lies inside, grown by ``margin`` m on every side."""
-        px, py, pz = point.tolist() if isinstance(point, np.ndarray) else point
-        (cx, cy, cz), rotation, (hx, hy, hz) = self._floats
-        dx, dy, dz = px - cx, py - cy, pz - cz
-        (r00, r01, r02), (r10, r11, r12), (r20, r21, r22) = rotation
-        # rotation.T @ (point - center) in Python floats: numpy's products and sums in numpy's order (bit for
-        # bit the same on 200,000 random rotations and points), without numpy's cost per call
-        x = r00 * dx + r10 * dy + r20 * dz
-        y = r01 * dx + r11 * dy + r21 * dz
-        z = r02 * dx + r12 * dy + r22 * dz
-        if self.round and math.hypot(x, y) > hx + margin:
-            return False
-        return abs(x) <= hx + margin and abs(y) <= hy + margin and abs(z) <= hz + margin
 
 
 class KitchenScene:
@@ -207,7 +185,7 @@ class KitchenScene:
         self._load("box", cfg.box, (*cfg.box_origin, 0.0), fixed=True)
         self._load("microwave", cfg.microwave, (*cfg.microwave_origin, 0.0), fixed=True)
         cab = self.bodies["cabinet"]
-        for name, link in (("bottom drawer", 0), ("top drawer", 1)):
+        for link, (name, _) in enumerate(cfg.cabinet.drawer_links):
             self.bodies[name], self.links[name] = cab, link
             self.joints[name] = ContainerJoint(name, cab, link, 0.0, cfg.cabinet.travel, 0.5)
         self.links["box"] = -1
@@ -447,7 +425,7 @@ class KitchenScene:
             return fixed
         it = self.interiors[container]
         body = self.bodies[container]
-        on_base = it.link in ("base", "carcass", "shell")
+        on_base = self.links[container] < 0
         if on_base:
             pos, orn = self.pose(container)
         else:

@@ -10,11 +10,10 @@ perception layer, and are written as predicates of :mod:`taskcond.conditions` wh
 * the same for ``kinova gripper`` (the Kinova's, in dual-arm scenes);
 * ``A open`` / ``A closed``: the container joint is past ``open_fraction`` of its range / within
   :data:`CLOSED_FRACTION` of closed (bowls and mugs are always open);
-* ``A inside B``: A's centre of mass lies in B's interior volume (grown by :data:`INSIDE_MARGIN`);
-* ``A above B``: A's centre is over B's footprint and A's lowest point is not below B's top;
-* ``A below B``: ``B above A``;
-* ``A in front of B``: A is between the robot and B's front face (-x side), within B's width and at most
-  :data:`FRONT_DISTANCE` from it, not above B.
+* ``A inside B``, ``A above B``, ``A below B``, ``A in front of B``: the one definition of each relation in
+  :mod:`taskcond.relations` (the perceiver's too), on PyBullet's axis-aligned boxes of A and B (a free
+  object's, a drawer's or a cloth's own; a container's base without its lid or door) with their centres,
+  at the thresholds :data:`taskcond.relations.THRESHOLDS` and the front direction world -x.
 """
 
 from __future__ import annotations
@@ -25,6 +24,7 @@ from typing import Any
 import numpy as np
 import pybullet as p
 
+from taskcond import relations
 from taskcond.conditions import (
     ContainerState,
     GripperState,
@@ -33,17 +33,12 @@ from taskcond.conditions import (
     SpatialRelation,
 )
 from taskcond.envs.reader import Reading
+from taskcond.relations import Box
 from taskcond.sim.franka import FINGER_JOINTS
 from taskcond.sim.scene import ARTICULATED, GRIPPER, KINOVA_GRIPPER, KitchenScene
 
 CLOSED_FRACTION = 0.08
 """A container is closed when its joint is within this fraction of its range from closed."""
-INSIDE_MARGIN = 0.01
-"""Metres by which a container's interior is grown for ``inside``."""
-FRONT_DISTANCE = 0.20
-"""Largest gap (m) between A and B's front face for ``A in front of B``."""
-ABOVE_TOLERANCE = 0.01
-"""Metres A's lowest point may sink below B's top for ``A above B``."""
 
 
 class GroundTruth:
@@ -181,29 +176,18 @@ class GroundTruth:
             return False
         return self.open_fraction(container) <= CLOSED_FRACTION
 
-    def inside(self, a: str, b: str) -> bool:
-        if b not in self.scene.interiors:
-            return False
-        point = self._known_com(a)
-        return self.scene.interior(b).contains(self.com(a) if point is None else point, INSIDE_MARGIN)
+    def box(self, name: str) -> Box:
+        """PyBullet's axis-aligned box of ``name`` (world frame, m), centred, as the relations read it."""
+        lo, hi = self.scene.aabb(name)
+        return Box.of(lo, hi)
 
-    def above(self, a: str, b: str) -> bool:
-        alo, ahi = self.scene.aabb(a)
-        blo, bhi = self.scene.aabb(b)
-        c = (alo + ahi) / 2
-        over = blo[0] <= c[0] <= bhi[0] and blo[1] <= c[1] <= bhi[1]
-        return bool(over and alo[2] >= bhi[2] - ABOVE_TOLERANCE)
+    def relation(self, relation: Relation, a: str, b: str) -> bool:
+        """Whether ``A <relation> B`` holds now (:mod:`taskcond.relations`)."""
+        return relations.holds(relation, self.box(a), self.box(b))
 
     def height_over(self, a: str, b: str) -> float:
         """Gap (m) between A's lowest point and B's top."""
         return float(self.scene.aabb(a)[0][2] - self.scene.aabb(b)[1][2])
-
-    def in_front_of(self, a: str, b: str) -> bool:
-        alo, ahi = self.scene.aabb(a)
-        blo, bhi = self.scene.aabb(b)
-        cy = (alo[1] + ahi[1]) / 2
-        gap = blo[0] - ahi[0]
-        return bool(blo[1] <= cy <= bhi[1] and -0.005 <= gap <= FRONT_DISTANCE and alo[2] < bhi[2])
 
     def holds(self, pred: Predicate) -> bool:
         """Whether a condition holds in the current simulator state."""
@@ -216,14 +200,7 @@ class GroundTruth:
         if isinstance(pred, ContainerState):
             return self.is_open(pred.container) if pred.is_open else self.is_closed(pred.container)
         assert isinstance(pred, SpatialRelation)
-        a, b = pred.subject, pred.reference
-        if pred.relation is Relation.INSIDE:
-            return self.inside(a, b)
-        if pred.relation is Relation.ABOVE:
-            return self.above(a, b)
-        if pred.relation is Relation.BELOW:
-            return self.above(b, a)
-        return self.in_front_of(a, b)
+        return self.relation(pred.relation, pred.subject, pred.reference)
 
 
 __all__ = ["GroundTruth"]

@@ -28,6 +28,9 @@ PAIRS = (
 )
 FLOOR_GAP = 0.02
 """Height (m) of A's lowest point above B's floor where the oracle stops."""
+FRONT_CLEARANCE = 0.025
+"""Gap (m) the oracle leaves between A and the inner face of a drawer's front panel (the drawer link's
+origin, :class:`~taskcond.sim.assets.CabinetSpec`)."""
 BESIDE_DRAWER_YAW = math.pi / 2
 """Grasp yaw (rad, relative to A) of the held A when B is a drawer: fingers closing along world x, so that
 the hand's long side (20 cm across the fingers) is not under or against the pulled-out drawer beside A."""
@@ -44,7 +47,7 @@ def into_goal(env: KitchenEnv, a: str, b: str) -> tuple[np.ndarray, float]:
     if b.endswith("drawer"):
         front, _ = env.scene.pose(b)
         lo, hi = env.scene.aabb(a)
-        xy = np.array([front[0] + 0.025 + (hi[0] - lo[0]) / 2, xy[1]])
+        xy = np.array([front[0] + FRONT_CLEARANCE + (hi[0] - lo[0]) / 2, xy[1]])
     goal = np.array([xy[0], xy[1], floor + FLOOR_GAP + bottom_to_com(env, a)])
     return goal, rim
 

@@ -11,18 +11,20 @@ from __future__ import annotations
 import math
 from collections.abc import Iterator
 from dataclasses import dataclass, replace
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, TypeVar
 
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from taskcond.sim.assets import BoxSpec, CabinetSpec, MicrowaveSpec, VesselSpec
+from taskcond.sim.assets import BoxSpec, CabinetSpec, MicrowaveSpec, VesselSpec, to_world
 from taskcond.sim.franka import forward, top_down
 from taskcond.sim.scene import KitchenScene
 from taskcond.tasks.trajectory import Trajectory, Waypoint
 
 if TYPE_CHECKING:
     from taskcond.envs.kitchen import KitchenEnv
+
+SpecT = TypeVar("SpecT", BoxSpec, CabinetSpec, MicrowaveSpec)
 
 OPEN, CLOSED = 0.0, 1.0
 SAFE_Z = 0.30
@@ -80,7 +82,7 @@ def vessel_grasp(spec: VesselSpec) -> GraspPose:
         round(spec.height - VESSEL_GRIP_DEPTH, 6),
         math.pi / 2,
         spec.wall,
-        along=-round(spec.outer_radius - spec.wall / 2, 6),
+        along=-round(spec.wall_radius, 6),
         round=True,
     )
 
@@ -174,10 +176,8 @@ REGRIPS = 2
 def release_plans(env: KitchenEnv, rise: float = 0.10) -> Iterator[Trajectory]:
     """Open the fingers where the hand is; while they stay jammed on the object (opening below
     :data:`FREED_WIDTH`, at most :data:`REGRIPS` times) close them again, which presses the object's wall
-    flat between the pads, and reopen; then move up by ``rise`` m.
-
-    A bowl that turns a few degrees in the opening hand can wedge its wall across the pads (LHT2*: the
-    fingers stuck at 12 mm, and the rising hand lifted the bowl out of the drawer)."""
+    flat between the pads, and reopen; then move up by ``rise`` m. (A vessel turning in the opening hand
+    can wedge its wall across the pads: BENCHMARKS.md, "LHT2* mended".)"""
     pos, orn, _ = current(env)
     yield plan(env, [Waypoint(pos, orn, OPEN, GRIP_TIME)])
     for _ in range(REGRIPS):
@@ -215,19 +215,33 @@ def bottom_to_com(env: KitchenEnv, name: str) -> float:
 
 
 # ----------------------------------------------------------------------------------------- furniture
+LIP_REACH_BELOW = 0.014
+"""Depth (m) below the lip's underside of the end-effector point (between the closed fingertips) that lifts
+the lid: the fingertips' upper faces then bear on the lip."""
+LID_PUSH_INSET = 0.01
+"""Distance (m) behind the lid's front edge where :func:`lid_close`'s downward fingertips push it."""
+LID_PUSH_HEIGHT = 0.035
+"""Height (m) above the lid's top face of the end-effector point that pushes it (fingertips on the lid)."""
+FIN_PINCH_DEPTH = 0.014
+"""Depth (m) below the microwave fin's top edge where :func:`door_motion` pinches it."""
+
+
+def _spec(scene: KitchenScene, name: str, kind: type[SpecT]) -> SpecT:
+    spec = scene.specs[name]
+    if not isinstance(spec, kind):
+        raise TypeError(f"{name!r} is a {type(spec).__name__}, not a {kind.__name__}")
+    return spec
+
+
 def drawer_handle(scene: KitchenScene, drawer: str) -> np.ndarray:
     """World centre (3,) of a drawer's handle bar."""
-    spec = scene.specs["cabinet"]
-    assert isinstance(spec, CabinetSpec)
-    pos, _ = scene.pose(drawer)
-    return pos + np.array([-spec.handle_standoff, 0.0, spec.drawer_height / 2])
+    return to_world(scene.pose(drawer), _spec(scene, "cabinet", CabinetSpec).handle_center)
 
 
 def drawer_motion(env: KitchenEnv, drawer: str, to_fraction: float) -> list[Waypoint]:
     """Grasp a drawer's handle with the hand pointing +x, slide it to ``to_fraction`` of its travel,
     let go and back off."""
-    spec = env.scene.specs["cabinet"]
-    assert isinstance(spec, CabinetSpec)
+    spec = _spec(env.scene, "cabinet", CabinetSpec)
     handle = drawer_handle(env.scene, drawer)
     orn = np.array(forward())
     pre = handle - np.array([0.12, 0, 0])
@@ -244,36 +258,23 @@ def drawer_motion(env: KitchenEnv, drawer: str, to_fraction: float) -> list[Wayp
     ]
 
 
-def _rot_y(angle: float) -> np.ndarray:
-    return Rotation.from_euler("y", angle).as_matrix()
-
-
-def _rot_z(angle: float) -> np.ndarray:
-    return Rotation.from_euler("z", angle).as_matrix()
-
-
-def box_hinge(scene: KitchenScene) -> np.ndarray:
-    """World position (3,) of a point on the box lid's hinge axis (the axis is world y)."""
-    spec = scene.specs["box"]
-    assert isinstance(spec, BoxSpec)
-    pos, _ = scene.pose("box")
-    return pos + np.array([spec.size[0] / 2, 0.0, spec.size[2]])
-
-
-def lid_open(env: KitchenEnv, to_angle: float = 1.72) -> list[Waypoint]:
+def lid_open(env: KitchenEnv) -> list[Waypoint]:
     """Slide the closed fingertips (hand pointing +x) under the lid's lip and lift it along its arc past
-    vertical; gravity lays it on its stop."""
-    spec = env.scene.specs["box"]
-    assert isinstance(spec, BoxSpec)
-    hinge = box_hinge(env.scene)
+    vertical to its stop (:attr:`BoxSpec.open_angle`, the hinge's limit), where gravity holds it."""
+    spec = _spec(env.scene, "box", BoxSpec)
+    frame = env.scene.pose("box")
+    lip_x, _, lip_z = spec.lip_center
+    under = np.array([lip_x, 0.0, lip_z - spec.lip[2] / 2 - LIP_REACH_BELOW])
     orn = np.array(forward())
-    start = np.array([-(spec.size[0] + spec.lip[0] / 2), 0.0, -0.014])
-    pre = hinge + start - np.array([0.10, 0, 0])
-    arc = [Waypoint(hinge + _rot_y(a) @ start, orn, CLOSED, 0.12) for a in np.linspace(0.05, to_angle, 24)]
+    start = spec.hinge.to_world(frame, 0.0, under)
+    arc = [
+        Waypoint(spec.hinge.to_world(frame, a, under), orn, CLOSED, 0.12)
+        for a in np.linspace(0.05, spec.open_angle, 24)
+    ]
     end = arc[-1].position
     return [
-        *transit(env, pre, orn, CLOSED),
-        Waypoint(hinge + start, orn, CLOSED, 0.8),
+        *transit(env, start - np.array([0.10, 0, 0]), orn, CLOSED),
+        Waypoint(start, orn, CLOSED, 0.8),
         *arc,
         Waypoint(end - np.array([0.12, 0, 0]), orn, CLOSED, 0.8),
     ]
@@ -281,16 +282,19 @@ def lid_open(env: KitchenEnv, to_angle: float = 1.72) -> list[Waypoint]:
 
 def lid_close(env: KitchenEnv, to_angle: float = 0.6) -> list[Waypoint]:
     """Push the open lid from behind with the downward fingertips along its arc until gravity shuts it."""
-    spec = env.scene.specs["box"]
-    assert isinstance(spec, BoxSpec)
-    hinge = box_hinge(env.scene)
+    spec = _spec(env.scene, "box", BoxSpec)
+    frame = env.scene.pose("box")
     angle = env.scene.joint_position("box")
     orn = np.array(top_down())
-    contact = np.array([-(spec.size[0] - 0.01), 0.0, spec.lid + 0.035])
-    first = hinge + _rot_y(angle) @ contact
-    arc = [Waypoint(hinge + _rot_y(a) @ contact, orn, CLOSED, 0.12) for a in np.linspace(angle, to_angle, 20)]
+    front_x, _, top_z = spec.lid_front_top
+    contact = np.array([front_x + LID_PUSH_INSET, 0.0, top_z + LID_PUSH_HEIGHT])
+    first = spec.hinge.to_world(frame, angle, contact)
+    arc = [
+        Waypoint(spec.hinge.to_world(frame, a, contact), orn, CLOSED, 0.12)
+        for a in np.linspace(angle, to_angle, 20)
+    ]
     up = arc[-1].position + np.array([-0.05, 0, 0.10])
-    over = hinge[2] + spec.size[0] + 0.10
+    over = spec.hinge.axis_in_world(frame)[0][2] + spec.size[0] + 0.10
     return [
         *transit(env, first + np.array([0, 0, 0.10]), orn, CLOSED, z=over),
         Waypoint(first, orn, CLOSED, 0.8),
@@ -302,17 +306,16 @@ def lid_close(env: KitchenEnv, to_angle: float = 0.6) -> list[Waypoint]:
 def door_motion(env: KitchenEnv, to_angle: float) -> list[Waypoint]:
     """Pinch the microwave door's fin from above (fingers across the door), swing the door about its
     hinge to ``to_angle`` rad turning the hand with it, then let go and rise."""
-    spec = env.scene.specs["microwave"]
-    assert isinstance(spec, MicrowaveSpec)
-    origin, _ = env.scene.pose("microwave")
-    hinge = origin + np.array([0.0, -spec.width / 2, 0.0])
+    spec = _spec(env.scene, "microwave", MicrowaveSpec)
+    frame = env.scene.pose("microwave")
     angle = env.scene.joint_position("microwave")
-    local = np.array([-spec.door / 2, spec.width - spec.fin[1] / 2 - 0.01, spec.height + 0.016])
-    grip = hinge + _rot_z(angle) @ local
+    fin_x, fin_y, fin_z = spec.fin_center
+    local = np.array([fin_x, fin_y, fin_z + spec.fin[2] / 2 - FIN_PINCH_DEPTH])
+    grip = spec.hinge.to_world(frame, angle, local)
     above = np.array([0, 0, 0.10])
     n = max(2, round(abs(to_angle - angle) / 0.05))
     arc = [
-        Waypoint(hinge + _rot_z(a) @ local, np.array(top_down(math.pi / 2 + a)), CLOSED, 0.12)
+        Waypoint(spec.hinge.to_world(frame, a, local), np.array(top_down(math.pi / 2 + a)), CLOSED, 0.12)
         for a in np.linspace(angle, to_angle, n)[1:]
     ]
     end, end_orn = arc[-1].position, arc[-1].orientation
