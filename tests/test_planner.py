@@ -7,9 +7,7 @@ from taskcond.execution.planner import apply, goal_of, repair
 
 
 def _cond(name: str, pre: list[str], post: list[str]) -> TaskCondition:
-    return TaskCondition(
-        name, (), tuple(map(parse_predicate, pre)), tuple(map(parse_predicate, post)), ()
-    )
+    return TaskCondition(name, (), tuple(map(parse_predicate, pre)), tuple(map(parse_predicate, post)), ())
 
 
 CONDITIONS = {
@@ -33,6 +31,8 @@ CONDITIONS = {
         ),
     )
 }
+
+
 def conditions(task: str) -> TaskCondition:
     return CONDITIONS[task]
 

@@ -14,13 +14,20 @@ from typing import Any
 import numpy as np
 import pybullet as p
 
-from taskcond.conditions import Collision
+from taskcond.conditions import (
+    Collision,
+    ContainerState,
+    GripperState,
+    Predicate,
+    Relation,
+    SpatialRelation,
+)
 from taskcond.execution.skills import Demonstration, SkillLibrary, learn_skill, target_object
 from taskcond.execution.sources import condition_from_environment
 from taskcond.execution.world import Observation, Touch
 from taskcond.sim.perception import EnvironmentInfo, Perception, PerceptionConfig
 from taskcond.sim.recording import VideoRecorder
-from taskcond.sim.scene import KINOVA_GRIPPER
+from taskcond.sim.scene import KINOVA_GRIPPER, SceneConfig, dual_arm_config
 from taskcond.tasks.base import PrimitiveTask, Task, TaskInfo
 from taskcond.tasks.env import KitchenEnv
 from taskcond.tasks.registry import get_task, list_tasks, make
@@ -192,28 +199,70 @@ class KitchenWorld:
         return info["failure"] if terminated else None
 
 
+SCENES = ("kitchen", "dual-arm")
+"""Scenes of a free instruction: the default kitchen (the Franka, containers closed) or the dual-arm
+kitchen of the cloth tasks (:func:`taskcond.sim.scene.dual_arm_config`: the Kinova and the cloth, without
+the free objects that lie near the cloth)."""
+
+DUAL_ARM_WORDS = ("cloth", "fold", "kinova", "second arm", "other arm", "both arms", "two arms", "both hands")
+"""Words of an instruction that name what only the dual-arm kitchen has."""
+
+
+def instruction_scene(instruction: str) -> str:
+    """The scene an instruction needs (:data:`SCENES`): ``dual-arm`` when it names the cloth or a second
+    arm (:data:`DUAL_ARM_WORDS`), else ``kitchen``."""
+    text = " ".join("".join(c if c.isalnum() else " " for c in instruction.lower()).split())
+    return "dual-arm" if any(f" {w} " in f" {text} " for w in DUAL_ARM_WORDS) else "kitchen"
+
+
 class FreeTask(Task):
-    """A free instruction's episode: the default scene (containers closed, arm home); the suite has no
-    success check for it."""
+    """A free instruction's episode: the default scene (containers closed, arm home), or the dual-arm
+    kitchen with ``scene="dual-arm"``; its success is judged by the runner against the instruction's
+    goal predicates, not by the task."""
 
     max_steps = 10**9
 
-    def __init__(self, label: str, steps: tuple[str, ...] = ()) -> None:
+    def __init__(self, label: str, steps: tuple[str, ...] = (), scene: str = "kitchen") -> None:
+        if scene not in SCENES:
+            raise ValueError(f"unknown scene {scene!r}; valid: {', '.join(SCENES)}")
         self.info = TaskInfo("instruction", "long-horizon", steps, (), label)
+        self.scene = scene
+
+    def scene_config(self, config: SceneConfig | None) -> SceneConfig | None:
+        return dual_arm_config(config) if self.scene == "dual-arm" else config
 
     def success(self, env: Any) -> bool:
         return False
 
 
-def scene_objects() -> tuple[tuple[str, ...], Callable[[str, tuple[str, ...]], str | None]]:
-    """The default scene's object names and what each primitive affords there (for decomposition)."""
-    env = KitchenEnv(FreeTask(""))
+def scene_objects(
+    scene: str = "kitchen",
+) -> tuple[tuple[str, ...], Callable[[str, tuple[str, ...]], str | None]]:
+    """The object names of a scene (:data:`SCENES`) and what each primitive affords there (for
+    decomposition)."""
+    env = KitchenEnv(FreeTask("", scene=scene))
     try:
         world = KitchenWorld(env)
         objects, affords = world.objects, world.affords
         return objects, affords
     finally:
         env.close()
+
+
+def final_predicates(env: KitchenEnv) -> list[str]:
+    """Every relation and state of the condition vocabulary that holds now by the ground-truth judge
+    (:class:`taskcond.tasks.groundtruth.GroundTruth`), as sorted canonical strings: each gripper's grasp
+    (or ``not grasping``), each container's ``open``/``closed``, and the four spatial relations between
+    every ordered pair of the scene's named non-robot bodies."""
+    scene, truth = env.scene, env.truth
+    names = [b.name for b in scene.description().bodies if b.kind != "robot"]
+    movable = [*scene.free_objects, *(("cloth",) if scene.cloth is not None else ())]
+    grippers = ["gripper", *((KINOVA_GRIPPER,) if env.kinova is not None else ())]
+    preds: list[Predicate] = [GripperState(None, g) for g in grippers]
+    preds += [GripperState(o, g) for g in grippers for o in movable]
+    preds += [ContainerState(c, is_open) for c in scene.interiors for is_open in (True, False)]
+    preds += [SpatialRelation(a, r, b) for a in names for b in names if a != b for r in Relation]
+    return sorted(str(q) for q in preds if truth.holds(q))
 
 
 # ----------------------------------------------------------------------------------- demonstrations
@@ -327,8 +376,12 @@ def learn_library(
 
 __all__ = [
     "CONTEXTS",
+    "DUAL_ARM_WORDS",
+    "SCENES",
     "FreeTask",
     "KitchenWorld",
+    "final_predicates",
+    "instruction_scene",
     "learn_library",
     "primitive_task_ids",
     "record_demonstrations",

@@ -196,7 +196,6 @@ class _Flaw:
     state: frozenset[Predicate]
 
 
-
 class _Model:
     """The conditions of a repair, fetched once per task name and reduced to what the scene can show."""
 
@@ -316,7 +315,9 @@ def _drops(plan: list[str], model: _Model) -> list[Change]:
         own = named_effects(task)
         if parsed.primitive.id in ("grasp", "release", "open", "close"):
             cond = model.condition(task)
-            own = tuple(dict.fromkeys((*own, *(q for q in cond.post_conditions if not about_gripper_place(q)))))
+            own = tuple(
+                dict.fromkeys((*own, *(q for q in cond.post_conditions if not about_gripper_place(q))))
+            )
         untouched = model.untouched(plan, i)
         if parsed.primitive.id in DROPPABLE and own and all(q in untouched for q in own):
             changes.append(
@@ -344,20 +345,19 @@ def _best_fix(
             continue
         rest = plan[:k] + plan[k + 1 :]
         for j in range(i + 1):
-            new = rest[:j] + [plan[k]] + rest[j:]
+            new = [*rest[:j], plan[k], *rest[j:]]
             reason = f"'{need}' needs '{flaw.pred}', which '{plan[k]}' achieves later: moved before it"
             candidates.append(((*_cost(new, model), -j), new, Change("move", plan[k], j + 1, reason)))
     if achiever is not None and achiever != need:
         for j in range(i + 1):
-            new = plan[:j] + [achiever] + plan[j:]
+            new = [*plan[:j], achiever, *plan[j:]]
             reason = f"'{need}' needs '{flaw.pred}'; '{achiever}' achieves it"
             if j < i:
-                later = model.flaws(plan[:i] + [achiever] + plan[i:])
+                later = model.flaws([*plan[:i], achiever, *plan[i:]])
                 blocked = [f.pred for f in later if f.index == i]
                 if blocked:
                     reason += (
-                        f", before '{plan[j]}' since it needs {_join(blocked)}, "
-                        f"which hold(s) only until then"
+                        f", before '{plan[j]}' since it needs {_join(blocked)}, which hold(s) only until then"
                     )
             candidates.append(((*_cost(new, model), -j), new, Change("insert", achiever, j + 1, reason)))
     if not candidates:
