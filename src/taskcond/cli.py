@@ -364,19 +364,31 @@ def run(
     llm: LlmOption = None,
     skills: SkillsOption = None,
     planner: PlannerOption = "conditions",
+    start: Annotated[
+        str,
+        typer.Option(
+            "--start",
+            help="Start state of a free instruction: task (the scene's reset: objects near their usual "
+            "spots, containers closed) or random (each container open or closed with probability 1/2, "
+            "free objects upright with a uniform yaw at uniform collision-free spots of the reachable "
+            "table area; the same seed gives the same scene).",
+        ),
+    ] = "task",
 ) -> None:
     """Perform a long-horizon task: conditions, the look-ahead planner, Alg. 1 pre-condition satisfaction,
     Alg. 2 DMP control; a free instruction is judged by its goal predicates (exit 0 only on success)."""
     _sim_import()
     from taskcond.execution.decompose import DecompositionError, decompose
     from taskcond.execution.executor import METHODS
-    from taskcond.execution.kitchen import scene_objects
+    from taskcond.execution.kitchen import STARTS, scene_objects
     from taskcond.execution.runner import PLANNERS, make_source, plan_run, run_episode
 
     if method not in METHODS:
         fail(f"--method {method!r}: use one of {', '.join(METHODS)}")
     if planner not in PLANNERS:
         fail(f"--planner {planner!r}: use one of {', '.join(PLANNERS)}")
+    if start not in STARTS:
+        fail(f"--start {start!r}: use one of {', '.join(STARTS)}")
     if video is not None and video.suffix.lower() not in (".mp4", ".gif"):
         fail(f"--video {video}: use a .mp4 or .gif file name")
 
@@ -391,6 +403,8 @@ def run(
         plan = plan_run(spec, decomposer)
     except (DecompositionError, LLMError, ValueError) as exc:
         fail(str(exc))
+    if start != "task" and plan.task_id is not None:
+        fail(f"--start {start}: only a free instruction has one; {plan.task_id} starts from its own state")
     typer.echo(f"task: {plan.label}" + (" (decomposed by the LLM)" if plan.decomposed else ""))
     for k, step in enumerate(plan.steps, start=1):
         typer.echo(f"  {k}. {step}")
@@ -399,7 +413,8 @@ def run(
         source = make_source(method, library, llm)  # type: ignore[arg-type]
     except (LLMError, ValueError) as exc:
         fail(str(exc))
-    stem = Path("runs") / f"{_slug(plan.label)}-{method}-{seed}"
+    where = "" if start == "task" else f"-{start}"
+    stem = Path("runs") / f"{_slug(plan.label)}-{method}{where}-{seed}"
     video_path = None if no_video else (video or stem.with_suffix(".mp4"))
     trace_path = trace or stem.with_suffix(".json")
 
@@ -431,6 +446,7 @@ def run(
         show,
         planner=planner,
         on_plan=planned,
+        start_state=start,
     )
     trace_path.parent.mkdir(parents=True, exist_ok=True)
     trace_path.write_text(

@@ -215,21 +215,90 @@ def instruction_scene(instruction: str) -> str:
     return "dual-arm" if any(f" {w} " in f" {text} " for w in DUAL_ARM_WORDS) else "kitchen"
 
 
+STARTS = ("task", "random")
+"""Start states of a free instruction: ``task``, the scene's reset (free objects near their nominal spots,
+containers closed, arms home); ``random``, :func:`random_start`."""
+
+RANDOM_AREA = ((0.22, 0.55), (-0.45, 0.35))
+"""World x and y ranges (m) of the table area where :func:`random_start` places free objects: in front of
+the Franka (base at the origin), within about 0.7 m of it, where its demonstrations reach."""
+RANDOM_CLEARANCE = 0.03
+"""Least gap (m) between the footprints of a randomly placed object and anything else on the table."""
+RANDOM_TRIES = 200
+
+
+def random_start(env: KitchenEnv, rng: np.random.Generator) -> None:
+    """A random start state: each articulated container (drawers, box, microwave) open or closed with
+    probability 1/2; then each free object, in the scene's order, upright with a uniform yaw at a uniform
+    spot of :data:`RANDOM_AREA` whose footprint (its bounding rectangle at that yaw) keeps
+    :data:`RANDOM_CLEARANCE` from the bounding boxes of the containers and the cloth as they now stand
+    and of the objects placed before it: rejection sampling, :data:`RANDOM_TRIES` draws per object, the
+    whole placement drawn again (up to 20 times) when an object finds no spot. ``rng`` decides
+    everything: the same seed gives the same scene.
+
+    Raises:
+        RuntimeError: no placement found.
+    """
+    scene = env.scene
+    for name in scene.joints:
+        scene.set_joint(name, 1.0 if rng.random() < 0.5 else 0.0)
+    fixed = [n for n in scene.bodies if n not in scene.free_objects and n not in ("table", "cloth")]
+    boxes = [(lo[:2], hi[:2]) for lo, hi in map(scene.aabb, fixed)]
+    if scene.cloth is not None:
+        nodes = scene.cloth_nodes()
+        boxes.append((nodes.min(axis=0)[:2], nodes.max(axis=0)[:2]))
+    half = {}
+    for name in scene.free_objects:  # half extents (m) of the footprint at yaw 0
+        scene.place(name, (0.0, -2.0 - len(half)), 0.0)
+        lo, hi = scene.aabb(name)
+        half[name] = (hi[:2] - lo[:2]) / 2
+    (x0, x1), (y0, y1) = RANDOM_AREA
+    for _ in range(20):
+        placed = list(boxes)
+        spots = {}
+        for name, (hx, hy) in half.items():
+            for _ in range(RANDOM_TRIES):
+                xy = np.array([rng.uniform(x0, x1), rng.uniform(y0, y1)])
+                yaw = rng.uniform(-np.pi, np.pi)
+                cos, sin = abs(np.cos(yaw)), abs(np.sin(yaw))
+                extent = np.array([cos * hx + sin * hy, sin * hx + cos * hy]) + RANDOM_CLEARANCE
+                if all(np.any(xy + extent <= lo) or np.any(xy - extent >= hi) for lo, hi in placed):
+                    break
+            else:
+                break
+            placed.append((xy - extent + RANDOM_CLEARANCE, xy + extent - RANDOM_CLEARANCE))
+            spots[name] = (xy, yaw)
+        if len(spots) == len(half):
+            for name, (xy, yaw) in spots.items():
+                scene.place(name, xy, yaw)
+            return
+    raise RuntimeError("random start: no collision-free placement of the free objects found")
+
+
 class FreeTask(Task):
     """A free instruction's episode: the default scene (containers closed, arm home), or the dual-arm
-    kitchen with ``scene="dual-arm"``; its success is judged by the runner against the instruction's
-    goal predicates, not by the task."""
+    kitchen with ``scene="dual-arm"``; with ``start="random"`` the start state of :func:`random_start`.
+    Its success is judged by the runner against the instruction's goal predicates, not by the task."""
 
     max_steps = 10**9
 
-    def __init__(self, label: str, steps: tuple[str, ...] = (), scene: str = "kitchen") -> None:
+    def __init__(
+        self, label: str, steps: tuple[str, ...] = (), scene: str = "kitchen", start: str = "task"
+    ) -> None:
         if scene not in SCENES:
             raise ValueError(f"unknown scene {scene!r}; valid: {', '.join(SCENES)}")
+        if start not in STARTS:
+            raise ValueError(f"unknown start {start!r}; valid: {', '.join(STARTS)}")
         self.info = TaskInfo("instruction", "long-horizon", steps, (), label)
         self.scene = scene
+        self.start = start
 
     def scene_config(self, config: SceneConfig | None) -> SceneConfig | None:
         return dual_arm_config(config) if self.scene == "dual-arm" else config
+
+    def setup(self, env: KitchenEnv, rng: np.random.Generator) -> None:
+        if self.start == "random":
+            random_start(env, rng)
 
     def success(self, env: Any) -> bool:
         return False
@@ -377,13 +446,16 @@ def learn_library(
 __all__ = [
     "CONTEXTS",
     "DUAL_ARM_WORDS",
+    "RANDOM_AREA",
     "SCENES",
+    "STARTS",
     "FreeTask",
     "KitchenWorld",
     "final_predicates",
     "instruction_scene",
     "learn_library",
     "primitive_task_ids",
+    "random_start",
     "record_demonstrations",
     "scene_objects",
 ]

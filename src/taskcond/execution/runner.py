@@ -209,15 +209,26 @@ def run_episode(
     config: ExecutionConfig | None = None,
     planner: str = "conditions",
     on_plan: Callable[[Repair | None, tuple[Predicate, ...]], None] | None = None,
+    start_state: str = "task",
 ) -> EpisodeResult:
     """Reset the plan's task with ``seed``, repair its steps with the planner (with conditions and
     ``planner="conditions"``), and execute them with ``method``. ``on_plan`` is told the repair and the
-    goal before anything moves."""
+    goal before anything moves. ``start_state="random"`` (a free instruction only) draws the start from
+    :func:`~taskcond.execution.kitchen.random_start`.
+
+    Raises:
+        ValueError: an unknown planner; a random start for a suite task.
+    """
     if planner not in PLANNERS:
         raise ValueError(f"unknown planner {planner!r}; valid: {', '.join(PLANNERS)}")
+    if start_state != "task" and plan.task_id is not None:
+        raise ValueError(
+            f"--start {start_state}: only a free instruction has one; suite task {plan.task_id} starts "
+            "from its own initial state"
+        )
     start = time.perf_counter()
     if plan.task_id is None:
-        env = KitchenEnv(FreeTask(plan.label, plan.steps, plan.scene), gui=gui)
+        env = KitchenEnv(FreeTask(plan.label, plan.steps, plan.scene, start_state), gui=gui)
     else:
         env = make(plan.task_id, gui=gui)
     recorder = VideoRecorder(video) if video is not None else None
