@@ -24,6 +24,11 @@ CONDITIONS = {
             ["gripper grasping bottle", "box open"],
             ["gripper grasping bottle", "bottle inside box", "gripper above box"],
         ),
+        _cond("grasp mug", ["gripper not grasping"], ["gripper grasping mug"]),
+        _cond("release mug", ["gripper grasping mug"], ["gripper not grasping"]),
+        _cond(
+            "move mug on top of table", ["gripper grasping mug"], ["gripper grasping mug", "mug above table"]
+        ),
         _cond(
             "move bowl into box",
             ["gripper grasping bowl", "box open"],
@@ -72,6 +77,12 @@ def test_a_step_whose_effect_already_holds_is_dropped() -> None:
 def test_a_step_whose_effect_an_earlier_step_achieves_is_kept() -> None:
     plan = ("open box", "close box", "open box")
     assert repair(plan, CLOSED, conditions).steps == plan
+
+
+def test_a_move_whose_relation_already_holds_is_kept() -> None:
+    """The mug stands on the table at the start, and still the move sets it down after the grasp (LHT3)."""
+    plan = ("grasp mug", "move mug on top of table", "release mug")
+    assert repair(plan, _start("gripper not grasping", "mug above table"), conditions).steps == plan
 
 
 def test_no_repair_is_the_identity() -> None:

@@ -10,8 +10,8 @@ information of the start (§III-A.2) as the state:
   the post-conditions of the steps before it. A predicate holds until a post-condition contradicts it
   (:func:`taskcond.conditions.contradictions`), or until a step places its subject anew (a move's
   ``bottle inside box`` ends the bottle's earlier relations as subject);
-* **drop** (:data:`DROPPABLE`): a step whose effects already hold in the start state, and which no earlier
-  step has touched, does nothing;
+* **drop** (:data:`DROPPABLE`): a grasp, release, open or close whose effects already hold in the start
+  state, and which no earlier step has touched, does nothing;
 * **flaws**: a pre-condition of a step that does not hold in the state before it (relations of the gripper
   itself excluded: the primitive's own motion achieves them, as in Alg. 1);
 * **repair**, one flaw at a time, first flaw first: either *move* a later step that achieves the missing
@@ -56,9 +56,10 @@ Conditions = Callable[[str], TaskCondition]
 Affords = Callable[[str, tuple[str, ...]], str | None]
 """Primitive id and objects → why the scene refuses them, or None (:meth:`World.affords`)."""
 
-DROPPABLE = frozenset({"grasp", "release", "open", "close", "move_into", "move_on_top", "move_in_front"})
-"""Primitives whose effect is a predicate of the vocabulary; one of them whose effect already holds at the
-start is dropped. ``move A to position`` and ``tilt`` have no such effect, ``fold`` none that is observed."""
+DROPPABLE = frozenset({"grasp", "release", "open", "close"})
+"""Primitives whose post-conditions say all they achieve (the executor's ``IDEMPOTENT``): one whose effects
+already hold at the start is dropped. A move is never dropped: ``mug above table`` holds while the mug is
+held up, and the move that sets it down is still needed (LHT3); its goal, a place, is not a predicate."""
 
 MAX_CHANGES = 8
 """Most insertions and moves one repair makes."""
@@ -312,14 +313,16 @@ def _drops(plan: list[str], model: _Model) -> list[Change]:
     while i < len(plan):
         task = plan[i]
         parsed = parse_task(task)
-        own = named_effects(task)
-        if parsed.primitive.id in ("grasp", "release", "open", "close"):
-            cond = model.condition(task)
-            own = tuple(
-                dict.fromkeys((*own, *(q for q in cond.post_conditions if not about_gripper_place(q))))
+        if parsed.primitive.id not in DROPPABLE:
+            i += 1
+            continue
+        cond = model.condition(task)
+        own = tuple(
+            dict.fromkeys(
+                (*named_effects(task), *(q for q in cond.post_conditions if not about_gripper_place(q)))
             )
-        untouched = model.untouched(plan, i)
-        if parsed.primitive.id in DROPPABLE and own and all(q in untouched for q in own):
+        )
+        if all(q in model.untouched(plan, i) for q in own):
             changes.append(
                 Change("drop", task, i + 1 + len(changes), f"{_join(own)} already hold(s) at the start")
             )
