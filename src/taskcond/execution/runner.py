@@ -158,6 +158,7 @@ class EpisodeResult:
         adjustments: Alg. 2 collision adjustments.
         raised: primitives raised by Alg. 1.
         planner: :data:`PLANNERS` entry used.
+        plan_seconds: wall-clock time of the planner (conditions it had to fetch included).
         plan: the planner's repair (:meth:`~taskcond.execution.planner.Repair.to_dict`), or None
             (``planner="none"``, no conditions, or the planner could not get a condition).
         goal: the goal predicates (the suite task's post-conditions, or a free instruction's
@@ -181,6 +182,7 @@ class EpisodeResult:
     adjustments: int
     raised: int
     planner: str = "conditions"
+    plan_seconds: float = 0.0
     plan: dict[str, Any] | None = None
     goal: list[str] = field(default_factory=list)
     goal_missing: list[str] = field(default_factory=list)
@@ -238,11 +240,13 @@ def run_episode(
         env.reset(seed=seed)
         world = KitchenWorld(env, noise_sigma=noise, seed=seed, recorder=recorder)
         conditions = _memo(source) if source is not None else None
+        planning = time.perf_counter()
         if conditions is not None and planner != "none":
             try:
                 fixed = repair(plan.steps, world.observe().predicates, conditions, world.affords)
             except (ValueError, RuntimeError, OSError):
                 fixed = None  # a condition the source cannot give: the executor reports it on its step
+        planning = time.perf_counter() - planning
         goal = _goal(plan, env, conditions)
         if on_plan is not None:
             on_plan(fixed, goal)
@@ -288,6 +292,7 @@ def run_episode(
         adjustments=0 if result is None else result.adjustments,
         raised=0 if result is None else result.raised,
         planner=planner,
+        plan_seconds=round(planning, 4),
         plan=None if fixed is None else fixed.to_dict(),
         goal=[str(q) for q in goal],
         goal_missing=missing,
