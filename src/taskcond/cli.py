@@ -381,7 +381,7 @@ def run(
     from taskcond.execution.decompose import DecompositionError, decompose
     from taskcond.execution.executor import METHODS
     from taskcond.execution.kitchen import STARTS, scene_objects
-    from taskcond.execution.runner import PLANNERS, make_source, plan_run, run_episode
+    from taskcond.execution.runner import PLANNERS, make_source, plan_run, refused_task, run_episode
 
     if method not in METHODS:
         fail(f"--method {method!r}: use one of {', '.join(METHODS)}")
@@ -396,6 +396,9 @@ def run(
         from taskcond.llm.config import LLMConfig, make_backend
 
         objects, affords = scene_objects(scene)
+        refused = refused_task(instruction, objects, affords)
+        if refused is not None:
+            raise DecompositionError(f"{refused}; nothing was run")
         typer.echo(f"decomposing the instruction with the LLM ({scene} scene) ...", err=True)
         return decompose(instruction, make_backend(LLMConfig.load(llm)), objects, affords)
 

@@ -304,3 +304,14 @@ def test_random_start_is_seeded_and_collision_free() -> None:
             assert truth.holds(SpatialRelation(name, Relation.ABOVE, "table")), name
     finally:
         env.close()
+
+
+def test_an_instruction_whose_roles_are_impossible_is_one_line_and_nothing_runs(
+    tmp_path, monkeypatch
+) -> None:
+    monkeypatch.setenv("TASKCOND_CACHE_DIR", str(tmp_path / "cache"))
+    monkeypatch.chdir(tmp_path)
+    res = CliRunner().invoke(app, ["run", "Put the box into the bottle."])
+    assert res.exit_code == 2, res.output
+    assert res.stderr.startswith("error: cannot 'move box into bottle': 'box' cannot be picked up")
+    assert res.stderr.count("\n") == 1 and not (tmp_path / "runs").exists()

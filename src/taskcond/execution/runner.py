@@ -136,6 +136,23 @@ def plan_run(spec: str, decomposer: Callable[[str, str], list[str]] | None = Non
     return RunPlan(spec, None, tuple(decomposer(spec, scene)), decomposed=True, scene=scene)
 
 
+def refused_task(
+    instruction: str, objects: Iterable[str], affords: Callable[[str, tuple[str, ...]], str | None]
+) -> str | None:
+    """Why an instruction that reads as one primitive task on objects of the scene cannot be done there
+    (``put the box into the bottle``: the box cannot be picked up), or None. Asked before the LLM
+    decomposes it, which would otherwise answer a different task (the bottle into the box). An
+    instruction naming an object the scene lacks is left to the LLM (it may be a misspelling)."""
+    try:
+        task = parse_task(instruction.strip().rstrip(".!?"))
+    except TaskNameError:
+        return None
+    if not set(task.objects) <= set(objects):
+        return None
+    reason = affords(task.primitive.id, task.objects)
+    return None if reason is None else f"cannot {task.name!r}: {reason}"
+
+
 # ------------------------------------------------------------------------------------------ episodes
 @dataclass
 class EpisodeResult:
@@ -515,6 +532,7 @@ __all__ = [
     "make_source",
     "plan_run",
     "read_results",
+    "refused_task",
     "run_episode",
     "summarize",
 ]
