@@ -282,7 +282,7 @@ def test_the_planner_inserts_open_box_before_the_grasp_with_fixed_conditions(lib
     ((repair, goal),) = seen
     assert repair.steps == ("open box", "grasp bottle", "move bottle into box")
     assert [str(q) for q in goal] == ["bottle inside box"]
-    assert result.steps == list(repair.steps) and result.plan["changes"][0]["task"] == "open box"
+    assert result.steps == list(repair.steps) and result.repair["changes"][0]["task"] == "open box"
     assert result.events[0]["message"] == "step: open box"
 
 

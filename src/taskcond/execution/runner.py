@@ -176,7 +176,7 @@ class EpisodeResult:
         raised: primitives raised by Alg. 1.
         planner: :data:`PLANNERS` entry used.
         plan_seconds: wall-clock time of the planner (conditions it had to fetch included).
-        plan: the planner's repair (:meth:`~taskcond.execution.planner.Repair.to_dict`), or None
+        repair: the planner's repair (:meth:`~taskcond.execution.planner.Repair.to_dict`), or None
             (``planner="none"``, no conditions, or the planner could not get a condition).
         goal: the goal predicates (the suite task's post-conditions, or a free instruction's
             :func:`~taskcond.execution.planner.goal_of` of its plan before repair).
@@ -200,7 +200,7 @@ class EpisodeResult:
     raised: int
     planner: str = "conditions"
     plan_seconds: float = 0.0
-    plan: dict[str, Any] | None = None
+    repair: dict[str, Any] | None = None
     goal: list[str] = field(default_factory=list)
     goal_missing: list[str] = field(default_factory=list)
     final_predicates: list[str] = field(default_factory=list)
@@ -208,10 +208,10 @@ class EpisodeResult:
     conditions: dict[str, Any] = field(default_factory=dict)
 
     def summary(self) -> dict[str, Any]:
-        """The JSON-lines record of an evaluation (no trace, no final predicates; the plan's changes)."""
+        """The JSON-lines record of an evaluation (no trace, no final predicates; the repair's changes)."""
         out = asdict(self)
         del out["events"], out["conditions"], out["final_predicates"]
-        out["plan"] = None if self.plan is None else self.plan["changes"]
+        out["repair"] = None if self.repair is None else self.repair["changes"]
         return out
 
 
@@ -310,7 +310,7 @@ def run_episode(
         raised=0 if result is None else result.raised,
         planner=planner,
         plan_seconds=round(planning, 4),
-        plan=None if fixed is None else fixed.to_dict(),
+        repair=None if fixed is None else fixed.to_dict(),
         goal=[str(q) for q in goal],
         goal_missing=missing,
         final_predicates=final,
