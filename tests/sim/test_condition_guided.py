@@ -194,6 +194,7 @@ def test_run_and_eval_commands(library_dir, tmp_path) -> None:
     assert "1. grasp bottle" in res.output and "LHT1: succeeded" in res.output
     data = json.loads(trace.read_text())
     assert data["success"] is True and data["plan"]["steps"][-1] == "close box"
+    assert data["goal_missing"] == [] and {"box closed", "bottle inside box"} <= set(data["final_predicates"])
     bad = runner.invoke(app, ["run", "LHT1", "--method", "magic"])
     assert bad.exit_code == 2 and "use one of llm, env, none" in bad.output
 
