@@ -122,3 +122,5 @@ def test_goal_composes_effects_and_keeps_the_gripper_only_from_a_final_grasp_or_
     put = ("grasp bottle", "move bottle into box", "release bottle")
     assert [str(p) for p in goal_of(put, conditions)] == ["bottle inside box", "gripper not grasping"]
     assert [str(p) for p in goal_of(("grasp bottle",))] == ["gripper grasping bottle"]
+    below = {"move bottle on top of box": _cond("move bottle on top of box", [], ["box below bottle"])}
+    assert [str(p) for p in goal_of(["move bottle on top of box"], below.get)] == ["bottle above box"]

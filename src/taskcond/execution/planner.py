@@ -386,8 +386,10 @@ def goal_of(steps: Sequence[str], conditions: Conditions | None = None) -> tuple
     for k, task in enumerate(steps):
         cond = conditions(task) if conditions is not None else None
         last = k == len(steps) - 1
-        for pred in effects(task, cond):
-            slot = _slot(pred)
+        own: dict[tuple[str, str], Predicate] = {}
+        for pred in effects(task, cond):  # the named effect first: it wins over an equivalent one
+            own.setdefault(_slot(pred), pred)
+        for slot, pred in own.items():
             goal.pop(slot, None)
             if slot[0] != "gripper" or (last and parse_task(task).primitive.id in ("grasp", "release")):
                 goal[slot] = pred
