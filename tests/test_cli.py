@@ -42,16 +42,21 @@ runner = CliRunner()
             "error: --prompt-version 'v9': use one of v1, v2, v3, v4",
         ),
         (["run", "LHT1", "--method", "magic"], "error: --method 'magic': use one of llm, env, none"),
+        (["run", "LHT1", "--planner", "magic"], "error: --planner 'magic': use one of conditions, none"),
+        (["run", ""], "error: empty instruction; give a suite task id"),
+        (["run", " \t "], "error: empty instruction; give a suite task id"),
         (["learn", "--task", "grasp-unicorn"], "error: unknown object(s) 'unicorn' for primitive 'grasp'"),
         (["eval", "long-horizon", "--task", "LHT9"], "error: 'LHT9' is not a long-horizon task"),
     ],
 )
 def test_bad_input_is_a_one_line_error_with_exit_code_2(args, message, monkeypatch, tmp_path):
-    monkeypatch.setenv("TASKCOND_CACHE_DIR", str(tmp_path))
+    monkeypatch.setenv("TASKCOND_CACHE_DIR", str(tmp_path / "cache"))
+    monkeypatch.chdir(tmp_path)
     result = runner.invoke(app, args)
     assert result.exit_code == 2, result.output
     assert result.stderr.startswith(message)
     assert result.stderr.count("\n") == 1 and "Traceback" not in result.output
+    assert not (tmp_path / "runs").exists() and not (tmp_path / "cache").exists()  # nothing ran
 
 
 @pytest.mark.parametrize(

@@ -252,6 +252,15 @@ NoiseOption = Annotated[
     float,
     typer.Option("--noise", min=0.0, help="Perception noise sigma in metres on object centres and boxes."),
 ]
+PlannerOption = Annotated[
+    str,
+    typer.Option(
+        "--planner",
+        help="conditions (default): check the plan against the start state with the task conditions and "
+        "repair it before moving (insert, drop, reorder); none: run the plan as given, the paper's "
+        "behaviour (Alg. 1 alone).",
+    ),
+]
 SkillsOption = Annotated[
     Path | None,
     typer.Option("--skills", help="Skill library directory (default: the user cache; learned on first use)."),
@@ -354,30 +363,51 @@ def run(
     noise: NoiseOption = 0.005,
     llm: LlmOption = None,
     skills: SkillsOption = None,
+    planner: PlannerOption = "conditions",
+    start: Annotated[
+        str,
+        typer.Option(
+            "--start",
+            help="Start state of a free instruction: task (the scene's reset: objects near their usual "
+            "spots, containers closed) or random (each container open or closed with probability 1/2, "
+            "free objects upright with a uniform yaw at uniform collision-free spots of the reachable "
+            "table area; the same seed gives the same scene).",
+        ),
+    ] = "task",
 ) -> None:
-    """Perform a long-horizon task: conditions, Alg. 1 pre-condition satisfaction, Alg. 2 DMP control."""
+    """Perform a long-horizon task: conditions, the look-ahead planner, Alg. 1 pre-condition satisfaction,
+    Alg. 2 DMP control; a free instruction is judged by its goal predicates (exit 0 only on success)."""
     _sim_import()
     from taskcond.execution.decompose import DecompositionError, decompose
     from taskcond.execution.executor import METHODS
-    from taskcond.execution.kitchen import scene_objects
-    from taskcond.execution.runner import make_source, plan_run, run_episode
+    from taskcond.execution.kitchen import STARTS, scene_objects
+    from taskcond.execution.runner import PLANNERS, make_source, plan_run, refused_task, run_episode
 
     if method not in METHODS:
         fail(f"--method {method!r}: use one of {', '.join(METHODS)}")
+    if planner not in PLANNERS:
+        fail(f"--planner {planner!r}: use one of {', '.join(PLANNERS)}")
+    if start not in STARTS:
+        fail(f"--start {start!r}: use one of {', '.join(STARTS)}")
     if video is not None and video.suffix.lower() not in (".mp4", ".gif"):
         fail(f"--video {video}: use a .mp4 or .gif file name")
 
-    def decomposer(instruction: str) -> list[str]:
+    def decomposer(instruction: str, scene: str) -> list[str]:
         from taskcond.llm.config import LLMConfig, make_backend
 
-        objects, affords = scene_objects()
-        typer.echo("decomposing the instruction with the LLM ...", err=True)
+        objects, affords = scene_objects(scene)
+        refused = refused_task(instruction, objects, affords)
+        if refused is not None:
+            raise DecompositionError(f"{refused}; nothing was run")
+        typer.echo(f"decomposing the instruction with the LLM ({scene} scene) ...", err=True)
         return decompose(instruction, make_backend(LLMConfig.load(llm)), objects, affords)
 
     try:
         plan = plan_run(spec, decomposer)
     except (DecompositionError, LLMError, ValueError) as exc:
         fail(str(exc))
+    if start != "task" and plan.task_id is not None:
+        fail(f"--start {start}: only a free instruction has one; {plan.task_id} starts from its own state")
     typer.echo(f"task: {plan.label}" + (" (decomposed by the LLM)" if plan.decomposed else ""))
     for k, step in enumerate(plan.steps, start=1):
         typer.echo(f"  {k}. {step}")
@@ -386,32 +416,65 @@ def run(
         source = make_source(method, library, llm)  # type: ignore[arg-type]
     except (LLMError, ValueError) as exc:
         fail(str(exc))
-    stem = Path("runs") / f"{_slug(plan.label)}-{method}-{seed}"
+    where = "" if start == "task" else f"-{start}"
+    stem = Path("runs") / f"{_slug(plan.label)}-{method}{where}-{seed}"
     video_path = None if no_video else (video or stem.with_suffix(".mp4"))
     trace_path = trace or stem.with_suffix(".json")
 
     def show(event) -> None:
         typer.echo(f"{event.time:7.2f}s {'  ' * event.depth}{event.message}")
 
-    result = run_episode(plan, method, seed, library, source, noise, video_path, gui, show)  # type: ignore[arg-type]
+    def planned(repair, goal) -> None:
+        if repair is not None and repair.changes:
+            typer.echo("plan repaired by the planner:")
+            for k, step in enumerate(repair.steps, start=1):
+                typer.echo(f"  {k}. {step}")
+            for change in repair.changes:
+                typer.echo(f"  - {change}")
+        elif repair is not None and repair.impossible is None:
+            typer.echo("plan checked by the planner: no change")
+        for left in () if repair is None else repair.unresolved:
+            typer.echo(f"  (left to Alg. 1: {left})")
+        typer.echo(f"goal: {', '.join(map(str, goal)) or 'none (no predicate to check)'}")
+
+    result = run_episode(
+        plan,
+        method,  # type: ignore[arg-type]
+        seed,
+        library,
+        source,
+        noise,
+        video_path,
+        gui,
+        show,
+        planner=planner,
+        on_plan=planned,
+        start_state=start,
+    )
     trace_path.parent.mkdir(parents=True, exist_ok=True)
     trace_path.write_text(
         json.dumps(
-            {"plan": {"label": plan.label, "task_id": plan.task_id, "steps": list(plan.steps)}}
+            {
+                "plan": {
+                    "label": plan.label,
+                    "task_id": plan.task_id,
+                    "steps": list(plan.steps),
+                    "scene": plan.scene,
+                }
+            }
             | asdict(result),
             indent=1,
         ),
         encoding="utf-8",
     )
-    if result.failure is not None:
-        outcome = f"FAILED ({result.reason})"
-    else:
-        outcome = "succeeded" if result.success else "finished (a free instruction has no success check)"
+    if result.failure == "impossible":
+        fail(f"cannot do {plan.label!r}: {result.reason}; nothing moved (trace: {trace_path})")
+    outcome = "succeeded" if result.success else f"FAILED ({result.reason})"
     typer.echo(
         f"{plan.label}: {outcome}; {result.sim_seconds:.1f} s simulated, {result.wall_seconds:.1f} s wall"
     )
     typer.echo(f"trace: {trace_path}" + (f"; video: {video_path}" if video_path else ""))
-    if result.failure is not None:
+    if not result.success:
         raise typer.Exit(1)
 
 
@@ -427,12 +490,14 @@ def _eval_execution(
     noise: float,
     llm: str | None,
     skills: Path | None,
+    planner: str = "conditions",
 ) -> None:
     _sim_import()
     from tqdm import tqdm
 
     from taskcond.execution.executor import METHODS
     from taskcond.execution.runner import (
+        PLANNERS,
         cpu_count,
         default_library_dir,
         eval_task_ids,
@@ -444,6 +509,8 @@ def _eval_execution(
         summarize,
     )
 
+    if planner not in PLANNERS:
+        fail(f"--planner {planner!r}: use one of {', '.join(PLANNERS)}")
     methods = method or list(METHODS)
     bad = [m for m in methods if m not in METHODS]
     if bad:
@@ -467,10 +534,19 @@ def _eval_execution(
     out = out or Path("runs") / f"eval-{kind}.jsonl"
     workers = workers or cpu_count()
     bar = tqdm(total=len(jobs), desc=kind, unit="episode", file=sys.stderr, disable=None)
-    done = {(r["task"], r["method"], r["seed"]) for r in read_results(out)}
+    done = {
+        (r["task"], r["method"], r["seed"]) for r in read_results(out) if r.get("planner", "none") == planner
+    }
     bar.update(sum(j.key in done for j in jobs))
     records = evaluate(
-        jobs, out, skills or default_library_dir(), workers, llm, noise, progress=lambda _r: bar.update()
+        jobs,
+        out,
+        skills or default_library_dir(),
+        workers,
+        llm,
+        noise,
+        progress=lambda _r: bar.update(),
+        planner=planner,
     )
     bar.close()
     rows = summarize(records)
@@ -519,8 +595,11 @@ def _eval_command(kind: str):
         noise: NoiseOption = 0.005,
         llm: LlmOption = None,
         skills: SkillsOption = None,
+        planner: PlannerOption = "conditions",
     ) -> None:
-        _eval_execution(kind, episodes, method, workers, as_json, out, task, seed, noise, llm, skills)
+        _eval_execution(
+            kind, episodes, method, workers, as_json, out, task, seed, noise, llm, skills, planner
+        )
 
     return command
 

@@ -194,6 +194,7 @@ def test_run_and_eval_commands(library_dir, tmp_path) -> None:
     assert "1. grasp bottle" in res.output and "LHT1: succeeded" in res.output
     data = json.loads(trace.read_text())
     assert data["success"] is True and data["plan"]["steps"][-1] == "close box"
+    assert data["goal_missing"] == [] and {"box closed", "bottle inside box"} <= set(data["final_predicates"])
     bad = runner.invoke(app, ["run", "LHT1", "--method", "magic"])
     assert bad.exit_code == 2 and "use one of llm, env, none" in bad.output
 
@@ -235,3 +236,83 @@ def test_fold_runs_both_arms_from_one_two_arm_skill(tmp_path) -> None:
     finally:
         env.close()
     assert refused.failure_kind == "bad_task" and "'cloth' not in the scene" in refused.failure
+
+
+def test_a_free_instruction_whose_goal_does_not_hold_fails_and_its_trace_has_the_final_predicates(
+    library,
+) -> None:
+    """DMP only, the move into the closed box without a grasp: the bottle stays where it stood, so the
+    goal (``bottle inside box``) does not hold; the final predicates are the ground truth's."""
+    plan = RunPlan("put the bottle into the box", None, ("move bottle into box",), decomposed=True)
+    result = run_episode(plan, "none", 1000, library, None, noise=0.0)
+    assert result.goal == ["bottle inside box"]
+    assert result.success is False and result.failure == "not_succeeded"
+    assert result.goal_missing == ["bottle inside box"] and "bottle inside box" in result.reason
+    final = result.final_predicates
+    assert final == sorted(final) and "box closed" in final and "bottle inside box" not in final
+    assert "bottle above table" in final and "gripper not grasping" in final
+
+
+def test_the_planner_inserts_open_box_before_the_grasp_with_fixed_conditions(library) -> None:
+    """LHT1 from a closed box (the free scene): the planner opens the box before the grasp, so Alg. 1
+    never throws the bottle away to open it."""
+    conditions = {
+        "grasp bottle": TaskCondition(
+            "grasp bottle", (), (GripperState(None),), (GripperState("bottle"),), ()
+        ),
+        "open box": TaskCondition(
+            "open box",
+            (),
+            (GripperState(None), ContainerState("box", False)),
+            (ContainerState("box", True),),
+            (),
+        ),
+        "move bottle into box": TaskCondition(
+            "move bottle into box",
+            (),
+            (GripperState("bottle"), ContainerState("box", True)),
+            (SpatialRelation("bottle", Relation.INSIDE, "box"),),
+            (),
+        ),
+    }
+    plan = RunPlan("put the bottle into the box", None, ("grasp bottle", "move bottle into box"), True)
+    seen = []
+    result = run_episode(
+        plan, "env", 1000, library, Fixed(conditions), noise=0.0, on_plan=lambda r, g: seen.append((r, g))
+    )
+    ((repair, goal),) = seen
+    assert repair.steps == ("open box", "grasp bottle", "move bottle into box")
+    assert [str(q) for q in goal] == ["bottle inside box"]
+    assert result.steps == list(repair.steps) and result.repair["changes"][0]["task"] == "open box"
+    assert result.events[0]["message"] == "step: open box"
+
+
+def test_random_start_is_seeded_and_collision_free() -> None:
+    env = KitchenEnv(FreeTask("anything", start="random"))
+    try:
+
+        def state(seed: int):
+            env.reset(seed=seed)
+            poses = {n: env.scene.pose(n)[0].round(4).tolist() for n in env.scene.free_objects}
+            fractions = [round(f, 2) for f in env.scene.open_fractions()]
+            return poses, fractions
+
+        first, again, other = state(5), state(5), state(6)
+        assert first == again and first != other
+        assert any(f > 0.5 for _, fs in (first, other) for f in fs)  # some container starts open
+        truth = env.truth
+        for name in env.scene.free_objects:  # upright on the table, touching nothing but the table
+            assert truth.holds(SpatialRelation(name, Relation.ABOVE, "table")), name
+    finally:
+        env.close()
+
+
+def test_an_instruction_whose_roles_are_impossible_is_one_line_and_nothing_runs(
+    tmp_path, monkeypatch
+) -> None:
+    monkeypatch.setenv("TASKCOND_CACHE_DIR", str(tmp_path / "cache"))
+    monkeypatch.chdir(tmp_path)
+    res = CliRunner().invoke(app, ["run", "Put the box into the bottle."])
+    assert res.exit_code == 2, res.output
+    assert res.stderr.startswith("error: cannot 'move box into bottle': 'box' cannot be picked up")
+    assert res.stderr.count("\n") == 1 and not (tmp_path / "runs").exists()

@@ -13,14 +13,21 @@ from pathlib import Path
 import numpy as np
 import pybullet as p
 
-from taskcond.conditions import Collision
+from taskcond.conditions import (
+    Collision,
+    ContainerState,
+    GripperState,
+    Predicate,
+    Relation,
+    SpatialRelation,
+)
 from taskcond.envs.kitchen import KitchenEnv
 from taskcond.execution.skills import Demonstration, SkillLibrary, learn_skill, target_object
 from taskcond.execution.sources import condition_from_environment
 from taskcond.execution.world import Observation, Touch
 from taskcond.sim.perception import EnvironmentInfo, Perception, PerceptionConfig
 from taskcond.sim.recording import VideoRecorder
-from taskcond.sim.scene import KINOVA_GRIPPER
+from taskcond.sim.scene import KINOVA_GRIPPER, SceneConfig, dual_arm_config
 from taskcond.tasks.base import PrimitiveTask, Task, TaskInfo
 from taskcond.tasks.groundtruth import GroundTruth
 from taskcond.tasks.registry import get_task, list_tasks, make
@@ -191,28 +198,139 @@ class KitchenWorld:
         return info["failure"] if terminated else None
 
 
+SCENES = ("kitchen", "dual-arm")
+"""Scenes of a free instruction: the default kitchen (the Franka, containers closed) or the dual-arm
+kitchen of the cloth tasks (:func:`taskcond.sim.scene.dual_arm_config`: the Kinova and the cloth, without
+the free objects that lie near the cloth)."""
+
+DUAL_ARM_WORDS = ("cloth", "fold", "kinova", "second arm", "other arm", "both arms", "two arms", "both hands")
+"""Words of an instruction that name what only the dual-arm kitchen has."""
+
+
+def instruction_scene(instruction: str) -> str:
+    """The scene an instruction needs (:data:`SCENES`): ``dual-arm`` when it names the cloth or a second
+    arm (:data:`DUAL_ARM_WORDS`), else ``kitchen``."""
+    text = " ".join("".join(c if c.isalnum() else " " for c in instruction.lower()).split())
+    return "dual-arm" if any(f" {w} " in f" {text} " for w in DUAL_ARM_WORDS) else "kitchen"
+
+
+STARTS = ("task", "random")
+"""Start states of a free instruction: ``task``, the scene's reset (free objects near their nominal spots,
+containers closed, arms home); ``random``, :func:`random_start`."""
+
+RANDOM_AREA = ((0.22, 0.55), (-0.45, 0.35))
+"""World x and y ranges (m) of the table area where :func:`random_start` places free objects: in front of
+the Franka (base at the origin), within about 0.7 m of it, where its demonstrations reach."""
+RANDOM_CLEARANCE = 0.03
+"""Least gap (m) between the footprints of a randomly placed object and anything else on the table."""
+RANDOM_TRIES = 200
+
+
+def random_start(env: KitchenEnv, rng: np.random.Generator) -> None:
+    """A random start state: each articulated container (drawers, box, microwave) open or closed with
+    probability 1/2; then each free object, in the scene's order, upright with a uniform yaw at a uniform
+    spot of :data:`RANDOM_AREA` whose footprint (its bounding rectangle at that yaw) keeps
+    :data:`RANDOM_CLEARANCE` from the bounding boxes of the containers and the cloth as they now stand
+    and of the objects placed before it: rejection sampling, :data:`RANDOM_TRIES` draws per object, the
+    whole placement drawn again (up to 20 times) when an object finds no spot. ``rng`` decides
+    everything: the same seed gives the same scene.
+
+    Raises:
+        RuntimeError: no placement found.
+    """
+    scene = env.scene
+    for name in scene.joints:
+        scene.set_joint(name, 1.0 if rng.random() < 0.5 else 0.0)
+    fixed = [n for n in scene.bodies if n not in scene.free_objects and n not in ("table", "cloth")]
+    boxes = [(lo[:2], hi[:2]) for lo, hi in map(scene.aabb, fixed)]
+    if scene.cloth is not None:
+        nodes = scene.cloth_nodes()
+        boxes.append((nodes.min(axis=0)[:2], nodes.max(axis=0)[:2]))
+    half = {}
+    for name in scene.free_objects:  # half extents (m) of the footprint at yaw 0
+        scene.place(name, (0.0, -2.0 - len(half)), 0.0)
+        lo, hi = scene.aabb(name)
+        half[name] = (hi[:2] - lo[:2]) / 2
+    (x0, x1), (y0, y1) = RANDOM_AREA
+    for _ in range(20):
+        placed = list(boxes)
+        spots = {}
+        for name, (hx, hy) in half.items():
+            for _ in range(RANDOM_TRIES):
+                xy = np.array([rng.uniform(x0, x1), rng.uniform(y0, y1)])
+                yaw = rng.uniform(-np.pi, np.pi)
+                cos, sin = abs(np.cos(yaw)), abs(np.sin(yaw))
+                extent = np.array([cos * hx + sin * hy, sin * hx + cos * hy]) + RANDOM_CLEARANCE
+                if all(np.any(xy + extent <= lo) or np.any(xy - extent >= hi) for lo, hi in placed):
+                    break
+            else:
+                break
+            placed.append((xy - extent + RANDOM_CLEARANCE, xy + extent - RANDOM_CLEARANCE))
+            spots[name] = (xy, yaw)
+        if len(spots) == len(half):
+            for name, (xy, yaw) in spots.items():
+                scene.place(name, xy, yaw)
+            return
+    raise RuntimeError("random start: no collision-free placement of the free objects found")
+
+
 class FreeTask(Task):
-    """A free instruction's episode: the default scene (containers closed, arm home); the suite has no
-    success check for it."""
+    """A free instruction's episode: the default scene (containers closed, arm home), or the dual-arm
+    kitchen with ``scene="dual-arm"``; with ``start="random"`` the start state of :func:`random_start`.
+    Its success is judged by the runner against the instruction's goal predicates, not by the task."""
 
     max_steps = 10**9
 
-    def __init__(self, label: str, steps: tuple[str, ...] = ()) -> None:
+    def __init__(
+        self, label: str, steps: tuple[str, ...] = (), scene: str = "kitchen", start: str = "task"
+    ) -> None:
+        if scene not in SCENES:
+            raise ValueError(f"unknown scene {scene!r}; valid: {', '.join(SCENES)}")
+        if start not in STARTS:
+            raise ValueError(f"unknown start {start!r}; valid: {', '.join(STARTS)}")
         self.info = TaskInfo("instruction", "long-horizon", steps, (), label)
+        self.scene = scene
+        self.start = start
+
+    def scene_config(self, config: SceneConfig | None) -> SceneConfig | None:
+        return dual_arm_config(config) if self.scene == "dual-arm" else config
+
+    def setup(self, env: KitchenEnv, rng: np.random.Generator) -> None:
+        if self.start == "random":
+            random_start(env, rng)
 
     def success(self, env: KitchenEnv, truth: GroundTruth | None = None) -> bool:
         return False
 
 
-def scene_objects() -> tuple[tuple[str, ...], Callable[[str, tuple[str, ...]], str | None]]:
-    """The default scene's object names and what each primitive affords there (for decomposition)."""
-    env = KitchenEnv(FreeTask(""))
+def scene_objects(
+    scene: str = "kitchen",
+) -> tuple[tuple[str, ...], Callable[[str, tuple[str, ...]], str | None]]:
+    """The object names of a scene (:data:`SCENES`) and what each primitive affords there (for
+    decomposition)."""
+    env = KitchenEnv(FreeTask("", scene=scene))
     try:
         world = KitchenWorld(env)
         objects, affords = world.objects, world.affords
         return objects, affords
     finally:
         env.close()
+
+
+def final_predicates(env: KitchenEnv) -> list[str]:
+    """Every relation and state of the condition vocabulary that holds now by the ground-truth judge
+    (:class:`taskcond.tasks.groundtruth.GroundTruth`), as sorted canonical strings: each gripper's grasp
+    (or ``not grasping``), each container's ``open``/``closed``, and the four spatial relations between
+    every ordered pair of the scene's named non-robot bodies."""
+    scene, truth = env.scene, env.truth
+    names = [b.name for b in scene.description().bodies if b.kind != "robot"]
+    movable = [*scene.free_objects, *(("cloth",) if scene.cloth is not None else ())]
+    grippers = ["gripper", *((KINOVA_GRIPPER,) if env.kinova is not None else ())]
+    preds: list[Predicate] = [GripperState(None, g) for g in grippers]
+    preds += [GripperState(o, g) for g in grippers for o in movable]
+    preds += [ContainerState(c, is_open) for c in scene.interiors for is_open in (True, False)]
+    preds += [SpatialRelation(a, r, b) for a in names for b in names if a != b for r in Relation]
+    return sorted(str(q) for q in preds if truth.holds(q))
 
 
 # ----------------------------------------------------------------------------------- demonstrations
@@ -326,10 +444,17 @@ def learn_library(
 
 __all__ = [
     "CONTEXTS",
+    "DUAL_ARM_WORDS",
+    "RANDOM_AREA",
+    "SCENES",
+    "STARTS",
     "FreeTask",
     "KitchenWorld",
+    "final_predicates",
+    "instruction_scene",
     "learn_library",
     "primitive_task_ids",
+    "random_start",
     "record_demonstrations",
     "scene_objects",
 ]

@@ -1,9 +1,12 @@
 """Episodes of the condition-guided executor in the suite: ``taskcond run`` and ``taskcond eval
 primitives|long-horizon`` (paper §V, Tables III and IV).
 
-An episode resets a suite task with a seed, runs its primitive task names (a primitive task's own name, a
-long-horizon task's sequence, or the LLM's decomposition of a free instruction) through the
-:class:`~taskcond.execution.executor.Executor`, and judges success with the task's ground-truth check.
+An episode resets a suite task with a seed, checks and repairs its primitive task names (a primitive task's
+own name, a long-horizon task's sequence, or the LLM's decomposition of a free instruction) with the
+look-ahead planner (:mod:`taskcond.execution.planner`, unless ``planner="none"``: the paper's behaviour),
+runs them through the :class:`~taskcond.execution.executor.Executor`, and judges success with the task's
+ground-truth check, or for a free instruction with its goal predicates (:func:`~taskcond.execution.planner.
+goal_of`) judged by the ground truth. Every episode records the predicates that hold at its end.
 Evaluations run episodes in worker processes (one per core), append every finished episode to a JSON-lines
 file at once, and skip the episodes already in it, so an interrupted evaluation resumes where it stopped.
 """
@@ -22,15 +25,28 @@ from typing import Any
 
 import numpy as np
 
+from taskcond.conditions import Predicate, TaskCondition
 from taskcond.envs.kitchen import KitchenEnv
 from taskcond.execution.executor import METHODS, ConditionSource, Event, ExecutionConfig, Executor, Method
-from taskcond.execution.kitchen import FreeTask, KitchenWorld, learn_library, primitive_task_ids
+from taskcond.execution.kitchen import (
+    FreeTask,
+    KitchenWorld,
+    final_predicates,
+    instruction_scene,
+    learn_library,
+    primitive_task_ids,
+)
+from taskcond.execution.planner import Repair, goal_of, repair
 from taskcond.execution.skills import LIBRARY_FORMAT, SkillError, SkillLibrary
 from taskcond.execution.sources import EnvConditions, LLMConditions
 from taskcond.llm.models import cache_dir
 from taskcond.primitives import TaskNameError, parse_task
 from taskcond.sim.recording import VideoRecorder
 from taskcond.tasks.registry import UnknownTaskError, get_task, list_tasks, make
+
+PLANNERS = ("conditions", "none")
+"""``conditions``: the look-ahead planner repairs the plan before execution (beyond the paper); ``none``:
+the plan runs as given, Alg. 1 alone satisfies pre-conditions (the paper's behaviour)."""
 
 DEFAULT_NOISE = 0.005
 """Default perception noise σ (m) on object centres and boxes in runs and evaluations (§III-A.2)."""
@@ -73,24 +89,33 @@ class RunPlan:
     Attributes:
         label: what was asked (a suite id or an instruction).
         task_id: the suite task whose initial state and success check apply; None for a free instruction
-            (the default scene, no success check).
+            (judged by its goal predicates).
         steps: primitive task names in order.
         decomposed: the steps come from the LLM's decomposition of a free instruction.
+        scene: a free instruction's scene (:data:`taskcond.execution.kitchen.SCENES`); a suite task has
+            its own.
     """
 
     label: str
     task_id: str | None
     steps: tuple[str, ...]
     decomposed: bool = False
+    scene: str = "kitchen"
 
 
-def plan_run(spec: str, decomposer: Callable[[str], list[str]] | None = None) -> RunPlan:
+def plan_run(spec: str, decomposer: Callable[[str, str], list[str]] | None = None) -> RunPlan:
     """Resolve ``spec``: a suite id (``LHT1``, ``grasp-bottle``), a primitive task name of the suite
-    (``"grasp bottle"``), else a free instruction that ``decomposer`` turns into primitive task names.
+    (``"grasp bottle"``), else a free instruction that ``decomposer`` turns into primitive task names
+    (called with the instruction and its scene, :func:`~taskcond.execution.kitchen.instruction_scene`).
 
     Raises:
-        ValueError: a free instruction without a decomposer.
+        ValueError: an empty or blank ``spec``; a free instruction without a decomposer.
     """
+    if not spec.strip():
+        raise ValueError(
+            "empty instruction; give a suite task id (see `taskcond tasks`), a primitive task such as "
+            "'open box', or an instruction such as 'put the bottle into the box'"
+        )
     try:
         info = get_task(spec.strip()).info
     except UnknownTaskError:
@@ -107,7 +132,25 @@ def plan_run(spec: str, decomposer: Callable[[str], list[str]] | None = None) ->
             return RunPlan(spec, info.id, (info.task_name,))
     if decomposer is None:
         raise ValueError(f"{spec!r} is neither a suite task id nor a primitive task of the suite")
-    return RunPlan(spec, None, tuple(decomposer(spec)), decomposed=True)
+    scene = instruction_scene(spec)
+    return RunPlan(spec, None, tuple(decomposer(spec, scene)), decomposed=True, scene=scene)
+
+
+def refused_task(
+    instruction: str, objects: Iterable[str], affords: Callable[[str, tuple[str, ...]], str | None]
+) -> str | None:
+    """Why an instruction that reads as one primitive task on objects of the scene cannot be done there
+    (``put the box into the bottle``: the box cannot be picked up), or None. Asked before the LLM
+    decomposes it, which would otherwise answer a different task (the bottle into the box). An
+    instruction naming an object the scene lacks is left to the LLM (it may be a misspelling)."""
+    try:
+        task = parse_task(instruction.strip().rstrip(".!?"))
+    except TaskNameError:
+        return None
+    if not set(task.objects) <= set(objects):
+        return None
+    reason = affords(task.primitive.id, task.objects)
+    return None if reason is None else f"cannot {task.name!r}: {reason}"
 
 
 # ------------------------------------------------------------------------------------------ episodes
@@ -119,16 +162,26 @@ class EpisodeResult:
         task: suite id, or the instruction.
         method: ``none``, ``env`` or ``llm``.
         seed: the reset seed (also seeds the perception noise).
-        success: the ground-truth check; None for a free instruction.
-        failure: short reason class when not successful (the executor's failure kind, or
-            ``not_succeeded`` when the run completed but the check failed).
+        success: the ground-truth check: the suite task's, or for a free instruction every goal predicate
+            holds and the executor did not stop.
+        failure: short reason class when not successful (the executor's failure kind; ``impossible``
+            when the planner found the plan cannot be done and nothing moved; ``not_succeeded`` when the
+            run completed but the check failed).
         reason: the one-line reason.
-        steps: the primitive task names run.
+        steps: the primitive task names run (after the planner's repair).
         sim_seconds: simulated time.
         wall_seconds: wall-clock time of the episode.
         env_seconds: wall-clock time inside the environment's step (IK and physics).
         adjustments: Alg. 2 collision adjustments.
         raised: primitives raised by Alg. 1.
+        planner: :data:`PLANNERS` entry used.
+        plan_seconds: wall-clock time of the planner (conditions it had to fetch included).
+        repair: the planner's repair (:meth:`~taskcond.execution.planner.Repair.to_dict`), or None
+            (``planner="none"``, no conditions, or the planner could not get a condition).
+        goal: the goal predicates (the suite task's post-conditions, or a free instruction's
+            :func:`~taskcond.execution.planner.goal_of` of its plan before repair).
+        goal_missing: the goal predicates that do not hold at the end (ground truth).
+        final_predicates: every relation and state that holds at the end (ground truth), sorted.
         events: the trace.
         conditions: task name → condition used (JSON form).
     """
@@ -145,13 +198,20 @@ class EpisodeResult:
     env_seconds: float
     adjustments: int
     raised: int
+    planner: str = "conditions"
+    plan_seconds: float = 0.0
+    repair: dict[str, Any] | None = None
+    goal: list[str] = field(default_factory=list)
+    goal_missing: list[str] = field(default_factory=list)
+    final_predicates: list[str] = field(default_factory=list)
     events: list[dict[str, Any]] = field(default_factory=list)
     conditions: dict[str, Any] = field(default_factory=dict)
 
     def summary(self) -> dict[str, Any]:
-        """The JSON-lines record of an evaluation (no trace)."""
+        """The JSON-lines record of an evaluation (no trace, no final predicates; the repair's changes)."""
         out = asdict(self)
-        del out["events"], out["conditions"]
+        del out["events"], out["conditions"], out["final_predicates"]
+        out["repair"] = None if self.repair is None else self.repair["changes"]
         return out
 
 
@@ -166,29 +226,75 @@ def run_episode(
     gui: bool = False,
     on_event: Callable[[Event], None] | None = None,
     config: ExecutionConfig | None = None,
+    planner: str = "conditions",
+    on_plan: Callable[[Repair | None, tuple[Predicate, ...]], None] | None = None,
+    start_state: str = "task",
 ) -> EpisodeResult:
-    """Reset the plan's task with ``seed`` and execute its steps with ``method``."""
+    """Reset the plan's task with ``seed``, repair its steps with the planner (with conditions and
+    ``planner="conditions"``), and execute them with ``method``. ``on_plan`` is told the repair and the
+    goal before anything moves. ``start_state="random"`` (a free instruction only) draws the start from
+    :func:`~taskcond.execution.kitchen.random_start`.
+
+    Raises:
+        ValueError: an unknown planner; a random start for a suite task.
+    """
+    if planner not in PLANNERS:
+        raise ValueError(f"unknown planner {planner!r}; valid: {', '.join(PLANNERS)}")
+    if start_state != "task" and plan.task_id is not None:
+        raise ValueError(
+            f"--start {start_state}: only a free instruction has one; suite task {plan.task_id} starts "
+            "from its own initial state"
+        )
     start = time.perf_counter()
     if plan.task_id is None:
-        env = KitchenEnv(FreeTask(plan.label, plan.steps), gui=gui)
+        env = KitchenEnv(FreeTask(plan.label, plan.steps, plan.scene, start_state), gui=gui)
     else:
         env = make(plan.task_id, gui=gui)
     recorder = VideoRecorder(video) if video is not None else None
+    fixed: Repair | None = None
+    result = None
     try:
         env.reset(seed=seed)
         world = KitchenWorld(env, noise_sigma=noise, seed=seed, recorder=recorder)
-        executor = Executor(world, library, method, source, config, on_event)
-        result = executor.run(plan.steps)
-        success = None if plan.task_id is None else bool(env.task.success(env))
+        conditions = _memo(source) if source is not None else None
+        planning = time.perf_counter()
+        if conditions is not None and planner != "none":
+            try:
+                fixed = repair(plan.steps, world.observe().predicates, conditions, world.affords)
+            except (ValueError, RuntimeError, OSError):
+                fixed = None  # a condition the source cannot give: the executor reports it on its step
+        planning = time.perf_counter() - planning
+        goal = _goal(plan, env, conditions)
+        if on_plan is not None:
+            on_plan(fixed, goal)
+        steps = plan.steps if fixed is None else fixed.steps
+        if fixed is None or fixed.impossible is None:
+            executor = Executor(world, library, method, source, config, on_event)
+            result = executor.run(steps)
+        missing = [str(q) for q in goal if not env.truth.holds(q)]
+        if plan.task_id is None:
+            success = result is not None and result.failure is None and not missing
+        else:
+            success = bool(env.task.success(env))
+        final = final_predicates(env)
         sim_seconds = world.time
         env_seconds = world.env_seconds
     finally:
         if recorder is not None:
             recorder.close()
         env.close()
-    failure, reason = result.failure_kind, result.failure
-    if failure is None and success is False:
-        failure, reason = "not_succeeded", "the run completed but the task's success check failed"
+    if result is None:
+        assert fixed is not None and fixed.impossible is not None
+        failure, reason = "impossible", fixed.impossible
+    else:
+        failure, reason = result.failure_kind, result.failure
+    if failure is None and not success:
+        failure = "not_succeeded"
+        reason = (
+            f"the goal does not hold: {', '.join(missing)}"
+            if missing
+            else "the run completed but the task's success check failed"
+        )
     return EpisodeResult(
         task=plan.label,
         method=method,
@@ -196,15 +302,47 @@ def run_episode(
         success=success,
         failure=None if success else failure,
         reason=None if success else reason,
-        steps=list(plan.steps),
+        steps=list(steps),
         sim_seconds=round(sim_seconds, 3),
         wall_seconds=round(time.perf_counter() - start, 3),
         env_seconds=round(env_seconds, 3),
-        adjustments=result.adjustments,
-        raised=result.raised,
-        events=[e.to_dict() for e in result.events],
-        conditions={k: v.to_dict() for k, v in result.conditions.items()},
+        adjustments=0 if result is None else result.adjustments,
+        raised=0 if result is None else result.raised,
+        planner=planner,
+        plan_seconds=round(planning, 4),
+        repair=None if fixed is None else fixed.to_dict(),
+        goal=[str(q) for q in goal],
+        goal_missing=missing,
+        final_predicates=final,
+        events=[] if result is None else [e.to_dict() for e in result.events],
+        conditions={} if result is None else {k: v.to_dict() for k, v in result.conditions.items()},
     )
+
+
+def _memo(source: ConditionSource) -> Callable[[str], TaskCondition]:
+    """``source.condition`` remembered per task name for the planner of one episode."""
+    seen: dict[str, TaskCondition] = {}
+
+    def condition(task: str) -> TaskCondition:
+        if task not in seen:
+            seen[task] = source.condition(task)
+        return seen[task]
+
+    return condition
+
+
+def _goal(
+    plan: RunPlan, env: KitchenEnv, conditions: Callable[[str], TaskCondition] | None
+) -> tuple[Predicate, ...]:
+    """A suite task's post-conditions, or a free instruction's goal: :func:`goal_of` of its plan as the
+    instruction gave it (what the planner inserts is a means, not part of the goal), from the
+    conditions if there are any, else from the task names alone."""
+    if plan.task_id is not None:
+        return tuple(env.task.post_conditions())
+    try:
+        return goal_of(plan.steps, conditions)
+    except (ValueError, RuntimeError, OSError):
+        return goal_of(plan.steps)
 
 
 def make_source(
@@ -273,8 +411,8 @@ def read_results(path: Path) -> list[dict[str, Any]]:
 _WORKER: dict[str, Any] = {}
 
 
-def _init_worker(library_dir: str, llm: str | None, noise: float) -> None:
-    _WORKER.update(library=SkillLibrary.load(library_dir), llm=llm, noise=noise, sources={})
+def _init_worker(library_dir: str, llm: str | None, noise: float, planner: str = "conditions") -> None:
+    _WORKER.update(library=SkillLibrary.load(library_dir), llm=llm, noise=noise, sources={}, planner=planner)
 
 
 def _run_job(job: Job) -> dict[str, Any]:
@@ -284,7 +422,15 @@ def _run_job(job: Job) -> dict[str, Any]:
     try:
         if method not in sources:
             sources[method] = make_source(method, library, _WORKER["llm"])
-        result = run_episode(plan_run(job.task), method, job.seed, library, sources[method], _WORKER["noise"])
+        result = run_episode(
+            plan_run(job.task),
+            method,
+            job.seed,
+            library,
+            sources[method],
+            _WORKER["noise"],
+            planner=_WORKER["planner"],
+        )
         return result.summary()
     except Exception as exc:  # an episode that crashes is a failed episode with its reason
         return {
@@ -292,6 +438,7 @@ def _run_job(job: Job) -> dict[str, Any]:
             "method": job.method,
             "seed": job.seed,
             "success": False,
+            "planner": _WORKER["planner"],
             "failure": f"crash:{type(exc).__name__}",
             "reason": " ".join(str(exc).split())[:300],
         }
@@ -305,11 +452,13 @@ def evaluate(
     llm: str | None = None,
     noise: float = DEFAULT_NOISE,
     progress: Callable[[dict[str, Any]], None] | None = None,
+    planner: str = "conditions",
 ) -> list[dict[str, Any]]:
     """Run the jobs not yet in ``out`` (JSON lines, appended as each episode ends) in ``workers``
-    processes; returns every record of ``out`` that belongs to ``jobs``."""
+    processes with ``planner``; returns every record of ``out`` that belongs to ``jobs`` and was made
+    with ``planner`` (a record without one was made before the planner existed: ``none``)."""
     wanted = {j.key for j in jobs}
-    done = {(r["task"], r["method"], r["seed"]) for r in read_results(out)}
+    done = {(r["task"], r["method"], r["seed"]) for r in read_results(out) if _planner(r) == planner}
     todo = [j for j in jobs if j.key not in done]
     out.parent.mkdir(parents=True, exist_ok=True)
     with out.open("a", encoding="utf-8") as fh:
@@ -321,15 +470,23 @@ def evaluate(
                 progress(rec)
 
         if workers <= 1:
-            _init_worker(str(library_dir), llm, noise)
+            _init_worker(str(library_dir), llm, noise, planner)
             for job in todo:
                 record(_run_job(job))
         elif todo:
             ctx = multiprocessing.get_context("spawn")
-            with ctx.Pool(workers, _init_worker, (str(library_dir), llm, noise)) as pool:
+            with ctx.Pool(workers, _init_worker, (str(library_dir), llm, noise, planner)) as pool:
                 for rec in pool.imap_unordered(_run_job, todo):
                     record(rec)
-    return [r for r in read_results(out) if (r["task"], r["method"], r["seed"]) in wanted]
+    return [
+        r
+        for r in read_results(out)
+        if (r["task"], r["method"], r["seed"]) in wanted and _planner(r) == planner
+    ]
+
+
+def _planner(record: dict[str, Any]) -> str:
+    return record.get("planner", "none")
 
 
 def summarize(records: Iterable[dict[str, Any]]) -> list[dict[str, Any]]:
@@ -362,6 +519,7 @@ def cpu_count() -> int:
 __all__ = [
     "DEFAULT_NOISE",
     "ORACLE_REVISION",
+    "PLANNERS",
     "EpisodeResult",
     "Job",
     "RunPlan",
@@ -374,6 +532,7 @@ __all__ = [
     "make_source",
     "plan_run",
     "read_results",
+    "refused_task",
     "run_episode",
     "summarize",
 ]

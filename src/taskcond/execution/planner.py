@@ -1,0 +1,412 @@
+"""Look-ahead repair of a plan with the task conditions, and the goal of a plan (beyond the paper).
+
+The paper runs a long-horizon task as the given sequence of primitive tasks and satisfies each one's
+pre-conditions only when it is about to run (Alg. 1, §III-E). That looks one step ahead: a plan that needs
+the box open while the bottle is held releases the bottle to open the box. :func:`repair` reads the whole
+plan before anything moves, with the same conditions the executor will use, and the environment
+information of the start (§III-A.2) as the state:
+
+* **regression with frame rules** (:func:`apply`): the state before step *i* is the start state changed by
+  the post-conditions of the steps before it. A predicate holds until a post-condition contradicts it
+  (:func:`taskcond.conditions.contradictions`), or until a step places its subject anew (a move's
+  ``bottle inside box`` ends the bottle's earlier relations as subject);
+* **drop** (:data:`DROPPABLE`): a grasp, release, open or close whose effects already hold in the start
+  state, and which no earlier step has touched, does nothing;
+* **flaws**: a pre-condition of a step that does not hold in the state before it (relations of the gripper
+  itself excluded: the primitive's own motion achieves them, as in Alg. 1);
+* **repair**, one flaw at a time, first flaw first: either *move* a later step that achieves the missing
+  predicate, or *insert* the primitive that achieves it (Cond2Task, :func:`taskcond.primitives.
+  task_for_condition`), at every position up to the step that needs it. The candidate with the fewest
+  flaws wins, then the shorter plan, then the later position (the one Alg. 1 would pick). A flaw no
+  candidate reduces is left to Alg. 1 at run time;
+* **impossible**: a flaw whose achieving primitive the scene refuses (``move box into bottle``: the box
+  cannot be picked up), so that the instruction stops before the arm moves.
+
+Everything here is pure: conditions come from a callable (the executor's condition source), the start
+state is a set of :data:`~taskcond.conditions.Predicate`, what the scene affords is the
+:meth:`~taskcond.execution.world.World.affords` callable. No simulator.
+
+:func:`goal_of` composes the effects of a plan into goal predicates: each step's post-conditions that
+Cond2Task maps back to that step (its own effect, in the condition vocabulary), later steps replacing
+earlier ones on the same subject, and the gripper's state only from the last step when that step is a
+grasp or a release (the instruction then says what the hand holds at the end).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from typing import Any, Literal
+
+from taskcond.conditions import (
+    ContainerState,
+    GripperState,
+    Predicate,
+    Relation,
+    SpatialRelation,
+    TaskCondition,
+    contradictions,
+    is_gripper,
+)
+from taskcond.primitives import TaskNameError, parse_task, task_for_condition
+
+Conditions = Callable[[str], TaskCondition]
+"""Task name → its task condition (the executor's condition source)."""
+Affords = Callable[[str, tuple[str, ...]], str | None]
+"""Primitive id and objects → why the scene refuses them, or None (:meth:`World.affords`)."""
+
+DROPPABLE = frozenset({"grasp", "release", "open", "close"})
+"""Primitives whose post-conditions say all they achieve (the executor's ``IDEMPOTENT``): one whose effects
+already hold at the start is dropped. A move is never dropped: ``mug above table`` holds while the mug is
+held up, and the move that sets it down is still needed (LHT3); its goal, a place, is not a predicate."""
+
+MAX_CHANGES = 8
+"""Most insertions and moves one repair makes."""
+
+
+@dataclass(frozen=True)
+class Change:
+    """One change of :func:`repair`.
+
+    Attributes:
+        kind: ``insert``, ``drop`` or ``move``.
+        task: the primitive task concerned.
+        position: 1-based position of the task in the repaired plan (``insert``, ``move``) or in the plan
+            before the change (``drop``).
+        reason: one line.
+    """
+
+    kind: Literal["insert", "drop", "move"]
+    task: str
+    position: int
+    reason: str
+
+    def to_dict(self) -> dict[str, Any]:
+        return dataclasses.asdict(self)
+
+    def __str__(self) -> str:
+        return f"{self.kind} '{self.task}' (step {self.position}): {self.reason}"
+
+
+@dataclass(frozen=True)
+class Repair:
+    """What :func:`repair` made of a plan.
+
+    Attributes:
+        original: the plan as given.
+        steps: the plan to execute.
+        changes: the changes, in the order they were made.
+        unresolved: flaws left to Alg. 1 (``'box open' for 'move bottle into box'``).
+        impossible: why the plan cannot be done at all (nothing should move), or None.
+    """
+
+    original: tuple[str, ...]
+    steps: tuple[str, ...]
+    changes: tuple[Change, ...] = ()
+    unresolved: tuple[str, ...] = ()
+    impossible: str | None = None
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "original": list(self.original),
+            "steps": list(self.steps),
+            "changes": [c.to_dict() for c in self.changes],
+            "unresolved": list(self.unresolved),
+            "impossible": self.impossible,
+        }
+
+
+# ------------------------------------------------------------------------------------------ the model
+def about_gripper_place(pred: Predicate) -> bool:
+    """A spatial relation of a gripper itself (``gripper in front of box``): no primitive achieves it on
+    its own; the primitive's motion does (Alg. 1 leaves it to Alg. 2)."""
+    return isinstance(pred, SpatialRelation) and (is_gripper(pred.subject) or is_gripper(pred.reference))
+
+
+def named_effects(task: str) -> tuple[Predicate, ...]:
+    """The predicate a primitive task achieves by its name alone, the inverse of Cond2Task: ``grasp X`` →
+    ``gripper grasping X``, ``release X`` → ``gripper not grasping``, ``open X`` → ``X open``, ``close X``
+    → ``X closed``, ``move A into B`` → ``A inside B``, ``move A on top of B`` → ``A above B``, ``move A in
+    front of B`` → ``A in front of B``; nothing for move to a position, tilt and fold."""
+    parsed = parse_task(task)
+    objs = parsed.objects
+    effect: Predicate | None = {
+        "grasp": lambda: GripperState(objs[0]),
+        "release": lambda: GripperState(None),
+        "open": lambda: ContainerState(objs[0], True),
+        "close": lambda: ContainerState(objs[0], False),
+        "move_into": lambda: SpatialRelation(objs[0], Relation.INSIDE, objs[1]),
+        "move_on_top": lambda: SpatialRelation(objs[0], Relation.ABOVE, objs[1]),
+        "move_in_front": lambda: SpatialRelation(objs[0], Relation.IN_FRONT_OF, objs[1]),
+    }.get(parsed.primitive.id, lambda: None)()
+    return () if effect is None else (effect,)
+
+
+def effects(task: str, cond: TaskCondition | None) -> tuple[Predicate, ...]:
+    """The goal-relevant effects of ``task``: :func:`named_effects` and the post-conditions of ``cond``
+    that Cond2Task maps back to ``task`` (``B below A`` for ``move A on top of B``)."""
+    own = list(named_effects(task))
+    if cond is not None:
+        held = parse_task(task).objects[0]
+        own += [q for q in cond.post_conditions if q not in own and task_for_condition(q, held) == task]
+    return tuple(own)
+
+
+def _slot(pred: Predicate) -> tuple[str, str]:
+    """What a predicate is about, for 'a later step replaces an earlier one': a gripper, a container, or
+    the subject of a spatial relation (``B below A`` is about A's place, as ``A above B``)."""
+    if isinstance(pred, GripperState):
+        return ("gripper", pred.gripper)
+    if isinstance(pred, ContainerState):
+        return ("container", pred.container)
+    subject = pred.reference if pred.relation is Relation.BELOW else pred.subject
+    return ("place", subject)
+
+
+def apply(state: frozenset[Predicate], cond: TaskCondition) -> frozenset[Predicate]:
+    """The state after a step with condition ``cond`` (its post-conditions hold), under the frame rule: a
+    predicate of ``state`` survives unless a post-condition contradicts it, or it is a spatial relation of
+    an object the step places anew (subject of a spatial post-condition that was not a pre-condition)."""
+    post = [q for q in cond.post_conditions if not about_gripper_place(q)]
+    placed = {
+        _slot(q)[1]
+        for q in post
+        if isinstance(q, SpatialRelation) and q not in cond.pre_conditions and _slot(q)[0] == "place"
+    }
+    kept = {
+        s
+        for s in state
+        if not (isinstance(s, SpatialRelation) and _slot(s)[1] in placed and s not in post)
+        and not any(contradictions((s, q)) for q in post)
+    }
+    return frozenset(kept | set(post))
+
+
+def _grasped(state: frozenset[Predicate], gripper: str) -> str | None:
+    for pred in state:
+        if isinstance(pred, GripperState) and pred.gripper == gripper and pred.obj is not None:
+            return pred.obj
+    return None
+
+
+@dataclass(frozen=True)
+class _Flaw:
+    index: int
+    pred: Predicate
+    state: frozenset[Predicate]
+
+
+class _Model:
+    """The conditions of a repair, fetched once per task name and reduced to what the scene can show."""
+
+    def __init__(self, conditions: Conditions, start: frozenset[Predicate], affords: Affords | None):
+        self._source = conditions
+        self._cache: dict[str, TaskCondition] = {}
+        self.start = start
+        self.affords = affords
+
+    def condition(self, task: str) -> TaskCondition:
+        if task not in self._cache:
+            cond = self._source(task)
+            keep = self._applicable
+            self._cache[task] = dataclasses.replace(
+                cond,
+                pre_conditions=tuple(p for p in cond.pre_conditions if keep(p)),
+                post_conditions=tuple(p for p in cond.post_conditions if keep(p)),
+            )
+        return self._cache[task]
+
+    def _applicable(self, pred: Predicate) -> bool:
+        """As the executor's: a container state of an object that has no such state here is dropped
+        unless it holds at the start (an open-top mug is ``open``)."""
+        if not isinstance(pred, ContainerState) or pred in self.start or self.affords is None:
+            return True
+        return self.affords("close" if pred.is_open else "open", (pred.container,)) is None
+
+    def flaws(self, plan: Sequence[str]) -> list[_Flaw]:
+        """Every pre-condition of every step that does not hold in the state before it."""
+        state, found = self.start, []
+        for i, task in enumerate(plan):
+            cond = self.condition(task)
+            found += [
+                _Flaw(i, p, state)
+                for p in dict.fromkeys(cond.pre_conditions)
+                if not about_gripper_place(p) and p not in state
+            ]
+            state = apply(state, cond)
+        return found
+
+    def untouched(self, plan: Sequence[str], upto: int) -> frozenset[Predicate]:
+        """The start-state predicates that no step before ``upto`` re-achieved or removed."""
+        state = self.start
+        for task in plan[:upto]:
+            cond = self.condition(task)
+            state = apply(state, cond) - set(cond.post_conditions)
+        return state & self.start
+
+
+# ---------------------------------------------------------------------------------------------- repair
+def repair(
+    steps: Sequence[str],
+    start: frozenset[Predicate] | set[Predicate],
+    conditions: Conditions,
+    affords: Affords | None = None,
+    max_changes: int = MAX_CHANGES,
+) -> Repair:
+    """Check ``steps`` against the start state with the task conditions and repair it (module doc).
+
+    Args:
+        steps: canonical primitive task names in order.
+        start: the predicates that hold at the start (the perceived environment information).
+        conditions: task name → task condition; asked for each step and each candidate primitive.
+        affords: what the scene refuses; None accepts everything.
+        max_changes: most insertions and moves.
+
+    Raises:
+        whatever ``conditions`` raises (the caller decides whether to run the plan unrepaired).
+    """
+    model = _Model(conditions, frozenset(start), affords)
+    plan = list(steps)
+    changes = _drops(plan, model)
+    given_up: set[tuple[str, Predicate]] = set()  # by the task that has the flaw: its index moves
+    for _ in range(max_changes):
+        flaws = [f for f in model.flaws(plan) if (plan[f.index], f.pred) not in given_up]
+        if not flaws:
+            break
+        flaw = flaws[0]
+        achiever = _achiever(flaw)
+        if achiever is not None and affords is not None:
+            parsed = parse_task(achiever)
+            refused = affords(parsed.primitive.id, parsed.objects)
+            if refused is not None:
+                impossible = (
+                    f"'{plan[flaw.index]}' needs '{flaw.pred}', and the only primitive that achieves it, "
+                    f"'{achiever}', cannot be done here: {refused}"
+                )
+                return Repair(tuple(steps), tuple(plan), tuple(changes), (), impossible)
+        best = _best_fix(plan, flaw, achiever, model)
+        if best is None:
+            given_up.add((plan[flaw.index], flaw.pred))
+            continue
+        plan, change = best
+        changes.append(change)
+    left = [f"'{f.pred}' for '{plan[f.index]}'" for f in model.flaws(plan)]
+    return Repair(tuple(steps), tuple(plan), tuple(changes), tuple(left))
+
+
+def _achiever(flaw: _Flaw) -> str | None:
+    """Cond2Task of the missing predicate, in the state before the step that needs it."""
+    pred = flaw.pred
+    gripper = pred.gripper if isinstance(pred, GripperState) else "gripper"
+    try:
+        name = task_for_condition(pred, _grasped(flaw.state, gripper))
+        return None if name is None else parse_task(name).name
+    except TaskNameError:
+        return None
+
+
+def _drops(plan: list[str], model: _Model) -> list[Change]:
+    """Remove, in place, the steps whose effects hold at the start and were not touched before them."""
+    changes: list[Change] = []
+    i = 0
+    while i < len(plan):
+        task = plan[i]
+        parsed = parse_task(task)
+        if parsed.primitive.id not in DROPPABLE:
+            i += 1
+            continue
+        cond = model.condition(task)
+        own = tuple(
+            dict.fromkeys(
+                (*named_effects(task), *(q for q in cond.post_conditions if not about_gripper_place(q)))
+            )
+        )
+        if all(q in model.untouched(plan, i) for q in own):
+            changes.append(
+                Change("drop", task, i + 1 + len(changes), f"{_join(own)} already hold(s) at the start")
+            )
+            del plan[i]
+            continue
+        i += 1
+    return changes
+
+
+def _cost(plan: Sequence[str], model: _Model) -> tuple[int, int]:
+    return (len(model.flaws(plan)), len(plan))
+
+
+def _best_fix(
+    plan: list[str], flaw: _Flaw, achiever: str | None, model: _Model
+) -> tuple[list[str], Change] | None:
+    """The cheapest plan that fixes ``flaw`` by moving a later step that achieves it or inserting its
+    achiever, if it has fewer flaws than ``plan`` (or as many, the first one later); else None."""
+    i, need = flaw.index, plan[flaw.index]
+    candidates: list[tuple[tuple[int, int, int], list[str], Change]] = []
+    for k in range(i + 1, len(plan)):
+        if flaw.pred not in effects(plan[k], model.condition(plan[k])):
+            continue
+        rest = plan[:k] + plan[k + 1 :]
+        for j in range(i + 1):
+            new = [*rest[:j], plan[k], *rest[j:]]
+            reason = f"'{need}' needs '{flaw.pred}', which '{plan[k]}' achieves later: moved before it"
+            candidates.append(((*_cost(new, model), -j), new, Change("move", plan[k], j + 1, reason)))
+    if achiever is not None and achiever != need:
+        for j in range(i + 1):
+            new = [*plan[:j], achiever, *plan[j:]]
+            reason = f"'{need}' needs '{flaw.pred}'; '{achiever}' achieves it"
+            if j < i:
+                later = model.flaws([*plan[:i], achiever, *plan[i:]])
+                blocked = [f.pred for f in later if f.index == i]
+                if blocked:
+                    reason += (
+                        f", before '{plan[j]}' since it needs {_join(blocked)}, which hold(s) only until then"
+                    )
+            candidates.append(((*_cost(new, model), -j), new, Change("insert", achiever, j + 1, reason)))
+    if not candidates:
+        return None
+    key, new, change = min(candidates, key=lambda c: c[0])
+    now = model.flaws(plan)
+    after = model.flaws(new)
+    if key[0] < len(now) or (key[0] == len(now) and after and after[0].index > i + 1):
+        return new, change
+    return None
+
+
+def _join(preds: Sequence[Predicate]) -> str:
+    return ", ".join(f"'{p}'" for p in preds)
+
+
+# ------------------------------------------------------------------------------------------------ goal
+def goal_of(steps: Sequence[str], conditions: Conditions | None = None) -> tuple[Predicate, ...]:
+    """The goal predicates of a plan (module doc): the composed :func:`effects` of its steps, a later
+    step's effect replacing an earlier one about the same gripper, container or object's place; the
+    gripper's state only from a final grasp or release. In first-achieved order."""
+    goal: dict[tuple[str, str], Predicate] = {}
+    for k, task in enumerate(steps):
+        cond = conditions(task) if conditions is not None else None
+        last = k == len(steps) - 1
+        own: dict[tuple[str, str], Predicate] = {}
+        for pred in effects(task, cond):  # the named effect first: it wins over an equivalent one
+            own.setdefault(_slot(pred), pred)
+        for slot, pred in own.items():
+            goal.pop(slot, None)
+            if slot[0] != "gripper" or (last and parse_task(task).primitive.id in ("grasp", "release")):
+                goal[slot] = pred
+    return tuple(goal.values())
+
+
+__all__ = [
+    "DROPPABLE",
+    "MAX_CHANGES",
+    "Affords",
+    "Change",
+    "Conditions",
+    "Repair",
+    "about_gripper_place",
+    "apply",
+    "effects",
+    "goal_of",
+    "named_effects",
+    "repair",
+]
