@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import json
 import sys
-from dataclasses import asdict
+from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Annotated, NoReturn
 
@@ -360,7 +360,13 @@ def run(
     from taskcond.execution.decompose import DecompositionError, decompose
     from taskcond.execution.executor import METHODS
     from taskcond.execution.kitchen import scene_objects
-    from taskcond.execution.runner import make_source, plan_run, run_episode
+    from taskcond.execution.runner import (
+        default_library_dir,
+        execution_config,
+        make_source,
+        plan_run,
+        run_episode,
+    )
 
     if method not in METHODS:
         fail(f"--method {method!r}: use one of {', '.join(METHODS)}")
@@ -393,11 +399,13 @@ def run(
     def show(event) -> None:
         typer.echo(f"{event.time:7.2f}s {'  ' * event.depth}{event.message}")
 
+    config = execution_config(skills or default_library_dir(), noise, llm)
     result = run_episode(plan, method, seed, library, source, noise, video_path, gui, show)  # type: ignore[arg-type]
     trace_path.parent.mkdir(parents=True, exist_ok=True)
     trace_path.write_text(
         json.dumps(
             {"plan": {"label": plan.label, "task_id": plan.task_id, "steps": list(plan.steps)}}
+            | {"config": config.to_dict(), "digest": config.digest}
             | asdict(result),
             indent=1,
         ),
@@ -415,34 +423,120 @@ def run(
         raise typer.Exit(1)
 
 
+BackendOption = Annotated[
+    str,
+    typer.Option(
+        "--backend",
+        help="Where episodes run: local (worker processes here) or ray (Ray tasks; extra [ray]).",
+    ),
+]
+RayAddressOption = Annotated[
+    str | None,
+    typer.Option(
+        "--ray-address",
+        help="Ray cluster to use with --backend ray (default: $RAY_ADDRESS, the Ray running on this "
+        "machine, else a new local one).",
+    ),
+]
+
+
+@dataclass(frozen=True)
+class ExecutionSettings:
+    """The options every episode-running command shares (eval primitives|long-horizon, reproduce)."""
+
+    workers: int | None = None
+    noise: float = 0.005
+    llm: str | None = None
+    skills: Path | None = None
+    backend: str = "local"
+    ray_address: str | None = None
+
+
+def _run_episodes(jobs, out: Path, settings: ExecutionSettings, desc: str) -> list[dict]:
+    """Run ``jobs`` into the results file ``out`` (resuming it) with a progress bar; returns the results.
+    Ends with exit 2 when ``out`` holds another configuration, exit 1 when episodes crashed (they are run
+    again by the next call)."""
+    from tqdm import tqdm
+
+    from taskcond.execution.runner import (
+        BACKENDS,
+        cpu_count,
+        default_library_dir,
+        evaluate,
+        execution_config,
+        job_key,
+        make_source,
+        plan_run,
+    )
+    from taskcond.results import ConfigMismatch, ResultsFile
+
+    if settings.backend not in BACKENDS:
+        fail(f"--backend {settings.backend!r}: use one of {', '.join(BACKENDS)}")
+    library = _library(settings.skills)
+    library_dir = settings.skills or default_library_dir()
+    try:
+        results = ResultsFile(out, execution_config(library_dir, settings.noise, settings.llm))
+    except (ConfigMismatch, LLMError) as exc:
+        fail(str(exc))
+    done = results.done(job_key)
+    todo = [j for j in jobs if j.key not in done]
+    if any(j.method == "llm" for j in todo):  # every condition once here; the workers read the cache
+        try:
+            source = make_source("llm", library, settings.llm)
+            names = {s for j in todo if j.method == "llm" for s in plan_run(j.task).steps}
+            for name in tqdm(sorted(names), desc="conditions", unit="task", file=sys.stderr, disable=None):
+                source.condition(name)  # type: ignore[union-attr]
+        except (LLMError, TaskNameError, ConditionError) as exc:
+            fail(str(exc))
+    bar = tqdm(total=len(jobs), desc=desc, unit="episode", file=sys.stderr, disable=None)
+    bar.update(len(jobs) - len(todo))
+    crashed: list[dict] = []
+
+    def told(rec: dict) -> None:
+        bar.update()
+        if rec.get("crashed"):
+            crashed.append(rec)
+
+    try:
+        records = evaluate(
+            jobs,
+            results,
+            library_dir,
+            settings.workers or cpu_count(),
+            settings.llm,
+            settings.noise,
+            progress=told,
+            backend=settings.backend,
+            ray_address=settings.ray_address,
+        )
+    except RuntimeError as exc:  # Ray missing or unreachable
+        fail(str(exc))
+    bar.close()
+    if crashed:
+        first = crashed[0]
+        typer.echo(
+            f"error: {len(crashed)} episode(s) crashed and were not counted (first: {first['task']} "
+            f"{first['method']} seed {first['seed']}: {first['error']}); run the same command again to "
+            f"retry them",
+            err=True,
+        )
+        raise typer.Exit(1)
+    return records
+
+
 def _eval_execution(
     kind: str,
     episodes: int,
     method: list[str] | None,
-    workers: int | None,
     as_json: bool,
     out: Path | None,
     task: list[str] | None,
     seed: int,
-    noise: float,
-    llm: str | None,
-    skills: Path | None,
+    settings: ExecutionSettings,
 ) -> None:
     _sim_import()
-    from tqdm import tqdm
-
     from taskcond.execution.executor import METHODS
-    from taskcond.execution.runner import (
-        cpu_count,
-        default_library_dir,
-        eval_task_ids,
-        evaluate,
-        jobs_for,
-        make_source,
-        plan_run,
-        read_results,
-        summarize,
-    )
+    from taskcond.execution.runner import eval_task_ids, jobs_for, summarize
 
     methods = method or list(METHODS)
     bad = [m for m in methods if m not in METHODS]
@@ -454,25 +548,9 @@ def _eval_execution(
         if unknown:
             fail(f"{unknown[0]!r} is not a {kind} task of the evaluation; valid: {', '.join(ids)}")
         ids = task
-    library = _library(skills)
-    if "llm" in methods:  # generate every condition once here, so that the workers read them from the cache
-        try:
-            source = make_source("llm", library, llm)
-            names = {s for tid in ids for s in plan_run(tid).steps}
-            for name in tqdm(sorted(names), desc="conditions", unit="task", file=sys.stderr, disable=None):
-                source.condition(name)  # type: ignore[union-attr]
-        except (LLMError, TaskNameError, ConditionError) as exc:
-            fail(str(exc))
     jobs = jobs_for(ids, methods, episodes, seed)
     out = out or Path("runs") / f"eval-{kind}.jsonl"
-    workers = workers or cpu_count()
-    bar = tqdm(total=len(jobs), desc=kind, unit="episode", file=sys.stderr, disable=None)
-    done = {(r["task"], r["method"], r["seed"]) for r in read_results(out)}
-    bar.update(sum(j.key in done for j in jobs))
-    records = evaluate(
-        jobs, out, skills or default_library_dir(), workers, llm, noise, progress=lambda _r: bar.update()
-    )
-    bar.close()
+    records = _run_episodes(jobs, out, settings, kind)
     rows = summarize(records)
     walls = [r["wall_seconds"] for r in records if "wall_seconds" in r]
     if as_json:
@@ -508,8 +586,9 @@ def _eval_command(kind: str):
             Path | None,
             typer.Option(
                 "--out",
-                help="JSON-lines results, appended per episode; an interrupted run resumes from it "
-                "(default runs/eval-primitives.jsonl or runs/eval-long-horizon.jsonl).",
+                help="JSON-lines results, appended per episode; it records the configuration, and a run "
+                "with the same configuration resumes from it (another configuration is an error). "
+                "Default runs/eval-primitives.jsonl or runs/eval-long-horizon.jsonl.",
             ),
         ] = None,
         task: Annotated[
@@ -519,8 +598,11 @@ def _eval_command(kind: str):
         noise: NoiseOption = 0.005,
         llm: LlmOption = None,
         skills: SkillsOption = None,
+        backend: BackendOption = "local",
+        ray_address: RayAddressOption = None,
     ) -> None:
-        _eval_execution(kind, episodes, method, workers, as_json, out, task, seed, noise, llm, skills)
+        settings = ExecutionSettings(workers, noise, llm, skills, backend, ray_address)
+        _eval_execution(kind, episodes, method, as_json, out, task, seed, settings)
 
     return command
 
