@@ -452,10 +452,11 @@ class ExecutionSettings:
     ray_address: str | None = None
 
 
-def _run_episodes(jobs, out: Path, settings: ExecutionSettings, desc: str) -> list[dict]:
-    """Run ``jobs`` into the results file ``out`` (resuming it) with a progress bar; returns the results.
-    Ends with exit 2 when ``out`` holds another configuration, exit 1 when episodes crashed (they are run
-    again by the next call)."""
+def _run_episodes(jobs, out: Path, settings: ExecutionSettings, desc: str) -> tuple[list[dict], dict]:
+    """Run ``jobs`` into the results file ``out`` (resuming it) with a progress bar; returns the results
+    and the run's configuration (with its digest). Ends with exit 2 when ``out`` holds another
+    configuration; crashed episodes are reported on stderr and left out (the next call runs them again),
+    see :func:`_crashed`."""
     from tqdm import tqdm
 
     from taskcond.execution.runner import (
@@ -468,7 +469,7 @@ def _run_episodes(jobs, out: Path, settings: ExecutionSettings, desc: str) -> li
         make_source,
         plan_run,
     )
-    from taskcond.results import ConfigMismatch, ResultsFile
+    from taskcond.results import ConfigMismatchError, ResultsFile
 
     if settings.backend not in BACKENDS:
         fail(f"--backend {settings.backend!r}: use one of {', '.join(BACKENDS)}")
@@ -476,7 +477,7 @@ def _run_episodes(jobs, out: Path, settings: ExecutionSettings, desc: str) -> li
     library_dir = settings.skills or default_library_dir()
     try:
         results = ResultsFile(out, execution_config(library_dir, settings.noise, settings.llm))
-    except (ConfigMismatch, LLMError) as exc:
+    except (ConfigMismatchError, LLMError) as exc:
         fail(str(exc))
     done = results.done(job_key)
     todo = [j for j in jobs if j.key not in done]
@@ -512,16 +513,21 @@ def _run_episodes(jobs, out: Path, settings: ExecutionSettings, desc: str) -> li
     except RuntimeError as exc:  # Ray missing or unreachable
         fail(str(exc))
     bar.close()
+    _crashed(crashed)
+    config = results.config
+    return records, config.to_dict() | {"digest": config.digest, "crashed": len(crashed)}
+
+
+def _crashed(crashed: list[dict]) -> None:
+    """Report crashed trials (exceptions, not task failures) on stderr."""
     if crashed:
         first = crashed[0]
         typer.echo(
-            f"error: {len(crashed)} episode(s) crashed and were not counted (first: {first['task']} "
+            f"error: {len(crashed)} trial(s) crashed and were not counted (first: {first['task']} "
             f"{first['method']} seed {first['seed']}: {first['error']}); run the same command again to "
             f"retry them",
             err=True,
         )
-        raise typer.Exit(1)
-    return records
 
 
 def _eval_execution(
@@ -550,7 +556,9 @@ def _eval_execution(
         ids = task
     jobs = jobs_for(ids, methods, episodes, seed)
     out = out or Path("runs") / f"eval-{kind}.jsonl"
-    records = _run_episodes(jobs, out, settings, kind)
+    records, config = _run_episodes(jobs, out, settings, kind)
+    if config["crashed"]:
+        raise typer.Exit(1)
     rows = summarize(records)
     walls = [r["wall_seconds"] for r in records if "wall_seconds" in r]
     if as_json:
@@ -613,6 +621,130 @@ eval_app.command("primitives", help="Success rate of every primitive task per ex
 eval_app.command(
     "long-horizon", help="Success rate of the long-horizon tasks per execution method (Table IV)."
 )(_eval_command("long-horizon"))
+
+
+TABLES = ("table2", "table3", "table4")
+
+
+def _reproduce_conditions(spec, trials, out: Path, llm: str | None, skills: Path | None):
+    """Table II's trials into ``out`` (resuming it); returns the results and the configuration."""
+    from tqdm import tqdm
+
+    from taskcond.execution.runner import default_library_dir
+    from taskcond.reproduce import condition_trial_runner
+    from taskcond.results import (
+        ConfigMismatchError,
+        ResultsFile,
+        RunConfig,
+        code_version,
+        directory_digest,
+        llm_fields,
+    )
+
+    library = _library(skills)
+    library_dir = skills or default_library_dir()
+    try:
+        config = RunConfig(
+            kind="conditions", **llm_fields(llm), skills=directory_digest(library_dir), code=code_version()
+        )
+        results = ResultsFile(out, config)
+    except (ConfigMismatchError, LLMError) as exc:
+        fail(str(exc))
+    done = results.done(lambda r: (r["task"], r["method"], r["seed"]))
+    todo = [t for t in trials if t.key not in done]
+    run = condition_trial_runner(lambda: _generator(llm, 1, False), lambda: library)
+    bar = tqdm(total=len(trials), desc=spec.name, unit="condition", file=sys.stderr, disable=None)
+    bar.update(len(trials) - len(todo))
+    crashed = []
+    for trial in todo:
+        try:
+            results.append(run(trial))
+        except Exception as exc:
+            rec = {"task": trial.task, "method": trial.method, "seed": trial.seed, "crashed": True}
+            crashed.append(results.append(rec | {"error": f"{type(exc).__name__}: {exc}"[:300]}))
+        bar.update()
+    bar.close()
+    _crashed(crashed)
+    return results.results(), config.to_dict() | {"digest": config.digest, "crashed": len(crashed)}
+
+
+@app.command()
+def reproduce(
+    table: Annotated[str, typer.Argument(help="table2, table3, table4 or all.")],
+    out: Annotated[
+        Path,
+        typer.Option(
+            "--out",
+            help="Directory for tableN.md/.json/.png and the resumable results tableN.jsonl (a rerun with "
+            "the same configuration resumes; another configuration is an error).",
+        ),
+    ],
+    episodes: Annotated[
+        int | None,
+        typer.Option(
+            "--episodes",
+            min=1,
+            help="Episodes (Table II: trials) per task and method; default per table: Table II 2 trials "
+            "per primitive, Table III 2 episodes per primitive task (37 of them), Table IV 5 per "
+            "long-horizon task.",
+        ),
+    ] = None,
+    workers: Annotated[
+        int | None, typer.Option("--workers", min=1, help="Worker processes (default: one per core).")
+    ] = None,
+    row: Annotated[
+        list[str] | None,
+        typer.Option(
+            "--row", help="Only these rows (repeatable): a primitive id (grasp, ...) or LHT1..LHT2*."
+        ),
+    ] = None,
+    backend: BackendOption = "local",
+    ray_address: RayAddressOption = None,
+    noise: NoiseOption = 0.005,
+    llm: LlmOption = None,
+    skills: SkillsOption = None,
+) -> None:
+    """Run the paper's Tables II-IV with our numbers beside the paper's, Wilson 95% intervals, plots."""
+    import time
+
+    from taskcond.execution.runner import Job
+    from taskcond.reproduce import only_rows, table_specs, trials_for, write_table
+
+    names = list(TABLES) if table == "all" else [table]
+    if any(n not in TABLES for n in names):
+        fail(f"table {table!r}: use one of {', '.join(TABLES)} or all")
+    _sim_import()
+    settings = ExecutionSettings(workers, noise, llm, skills, backend, ray_address)
+    out.mkdir(parents=True, exist_ok=True)
+    crashed = 0
+    for name in names:
+        try:
+            spec = only_rows(table_specs()[name], row) if row else table_specs()[name]
+        except ValueError as exc:
+            if len(names) == 1:
+                fail(str(exc))
+            continue  # --row names rows of another table of "all"
+        n = episodes or spec.default_episodes
+        trials = trials_for(spec, n)
+        start = time.perf_counter()
+        if spec.kind == "conditions":
+            records, config = _reproduce_conditions(spec, trials, out / f"{name}.jsonl", llm, skills)
+        else:
+            jobs = [Job(t.task, t.method, t.seed) for t in trials]
+            records, config = _run_episodes(jobs, out / f"{name}.jsonl", settings, name)
+        seconds = time.perf_counter() - start
+        crashed += config["crashed"]
+        footer = (
+            f"{len(records)} trials, {n} per task and method (seeds {spec.seed}+); this invocation "
+            f"{seconds / 60:.1f} min; configuration {config['digest']} (code {config['code']}, LLM "
+            f"{config['llm']}, noise {config['noise']}); confidence intervals: Wilson score, 95%."
+        )
+        extra = {"episodes": n, "seconds": round(seconds, 1), "config": config}
+        write_table(spec, records, n, out, extra, footer)
+        typer.echo((out / f"{name}.md").read_text(encoding="utf-8"))
+        typer.echo(f"wrote {out / name}.md, .json, .png", err=True)
+    if crashed:
+        raise typer.Exit(1)
 
 
 def main(args: list[str] | None = None) -> NoReturn:

@@ -17,7 +17,7 @@ from __future__ import annotations
 import json
 from collections import Counter
 from collections.abc import Callable, Iterable, Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from functools import cache
 from importlib import resources
 from pathlib import Path
@@ -211,6 +211,22 @@ def wilson_interval(successes: int, trials: int) -> tuple[float, float]:
 
     ci = binomtest(successes, trials).proportion_ci(confidence_level=0.95, method="wilson")
     return float(ci.low), float(ci.high)
+
+
+def only_rows(spec: TableSpec, keys: Iterable[str]) -> TableSpec:
+    """``spec`` with only the rows whose key is in ``keys`` (blocks left without rows dropped).
+
+    Raises:
+        ValueError: no row of ``spec`` has one of the keys.
+    """
+    wanted = set(keys)
+    blocks = tuple(
+        replace(b, rows=rows) for b in spec.blocks if (rows := tuple(r for r in b.rows if r.key in wanted))
+    )
+    if not blocks:
+        valid = sorted({r.key for b in spec.blocks for r in b.rows})
+        raise ValueError(f"{spec.name} has no row {', '.join(sorted(wanted))}; valid: {', '.join(valid)}")
+    return replace(spec, blocks=blocks)
 
 
 # -------------------------------------------------------------------------------------------- trials
@@ -500,6 +516,7 @@ __all__ = [
     "Trial",
     "build_cells",
     "condition_trial_runner",
+    "only_rows",
     "paper_values",
     "table_specs",
     "trials_for",

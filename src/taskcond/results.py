@@ -3,7 +3,7 @@ JSON-lines results files that hold the records of one configuration only (:class
 
 A results file starts with a header line ``{"taskcond_results": 1, "digest": ..., "config": {...}}``;
 every later line is one record (an episode, a generated condition) carrying the same ``digest``. Opening
-a file written under another configuration raises :class:`ConfigMismatch`, naming the fields that
+a file written under another configuration raises :class:`ConfigMismatchError`, naming the fields that
 differ, so that results of different configurations are never mixed, and a resumed run reuses only
 records of its own configuration. A record marked ``"crashed": true`` (an exception, not a task failure)
 is kept for diagnosis but is not a result: a resumed run does it again.
@@ -15,7 +15,7 @@ import hashlib
 import json
 import subprocess
 from collections.abc import Callable, Hashable, Iterator
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, fields
 from functools import cache
 from importlib import metadata
 from pathlib import Path
@@ -99,7 +99,7 @@ def code_version() -> str:
             return None
         return out.stdout
 
-    if git("ls-files", "--error-unmatch", Path(__file__).name) is not None:
+    if git("ls-files", "--error-unmatch", "__init__.py") is not None:
         described = (git("describe", "--always", "--dirty", "--tags") or "").strip()
         if described:
             if described.endswith("-dirty"):
@@ -123,21 +123,30 @@ def directory_digest(directory: Path) -> str:
     return f"{directory.name}@{digest.hexdigest()[:12]}"
 
 
-def llm_identity(spec: str | None) -> tuple[str, str | None]:
-    """``(backend:model, model hash)`` of the ``--llm`` spec as resolved by
-    :meth:`~taskcond.llm.config.LLMConfig.load` (which raises LLMError on a bad spec)."""
+def llm_fields(spec: str | None) -> dict[str, Any]:
+    """The LLM fields of a :class:`RunConfig` for the ``--llm`` spec as resolved by
+    :meth:`~taskcond.llm.config.LLMConfig.load` (which raises LLMError on a bad spec): backend and model,
+    the embedded model's pinned hash, and the condition generator's default settings."""
+    from taskcond.generator import ConditionGenerator
     from taskcond.llm.config import LLMConfig
     from taskcond.llm.models import DEFAULT_EMBEDDED_MODEL, get_embedded_model
 
     cfg = LLMConfig.load(spec)
     if cfg.backend == "embedded":
         model = get_embedded_model(cfg.model or DEFAULT_EMBEDDED_MODEL)
-        return f"embedded:{model.name}", model.sha256[:16]
-    where = f"@{cfg.base_url}" if cfg.base_url else ""
-    return f"openai:{cfg.model}{where}", None
+        name, digest = f"embedded:{model.name}", model.sha256[:16]
+    else:
+        name, digest = f"openai:{cfg.model}" + (f"@{cfg.base_url}" if cfg.base_url else ""), None
+    generator = {f.name: f.default for f in fields(ConditionGenerator) if f.name != "backend"}
+    return {
+        "llm": name,
+        "llm_model_hash": digest,
+        "prompt_version": generator.pop("prompt_version"),
+        "generator": generator,
+    }
 
 
-class ConfigMismatch(ValueError):
+class ConfigMismatchError(ValueError):
     """A results file holds records of another configuration (or of no recorded configuration)."""
 
 
@@ -149,7 +158,7 @@ class ResultsFile:
     an interruption loses at most the record being written).
 
     Raises:
-        ConfigMismatch: the file holds another configuration, or records without a header.
+        ConfigMismatchError: the file holds another configuration, or records without a header.
     """
 
     def __init__(self, path: Path, config: RunConfig) -> None:
@@ -163,13 +172,13 @@ class ResultsFile:
             return
         header = lines[0]
         if HEADER_KEY not in header:
-            raise ConfigMismatch(
+            raise ConfigMismatchError(
                 f"{path} holds results without a recorded configuration (written by an older taskcond); "
                 "use another --out or delete it"
             )
         if header.get("digest") != config.digest:
             diffs = config.differences(header.get("config", {}))
-            raise ConfigMismatch(
+            raise ConfigMismatchError(
                 f"{path} holds results of another configuration ({'; '.join(diffs) or 'digest differs'}); "
                 "use another --out, or the same settings to resume"
             )
@@ -208,10 +217,10 @@ class ResultsFile:
 
 
 __all__ = [
-    "ConfigMismatch",
+    "ConfigMismatchError",
     "ResultsFile",
     "RunConfig",
     "code_version",
     "directory_digest",
-    "llm_identity",
+    "llm_fields",
 ]

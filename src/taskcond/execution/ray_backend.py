@@ -17,7 +17,7 @@ from typing import Any
 from taskcond.execution.runner import Job, run_job
 
 
-class RayUnavailable(RuntimeError):
+class RayUnavailableError(RuntimeError):
     """Ray is not installed, or the cluster cannot be reached."""
 
 
@@ -25,7 +25,7 @@ def _connect(workers: int, address: str | None):
     try:
         import ray
     except ImportError:
-        raise RayUnavailable(
+        raise RayUnavailableError(
             "--backend ray needs Ray: pip install 'taskcond[ray]' (or use --backend local)"
         ) from None
     if ray.is_initialized():
@@ -42,7 +42,7 @@ def _connect(workers: int, address: str | None):
             runtime_env={"env_vars": env} if env else None,
         )
     except (ConnectionError, RuntimeError, ValueError) as exc:
-        raise RayUnavailable(
+        raise RayUnavailableError(
             f"cannot start or reach Ray at {address or 'a local instance'}: {' '.join(str(exc).split())}"
         ) from None
     return ray, True
@@ -65,4 +65,4 @@ def run_on_ray(
             ray.shutdown()
 
 
-__all__ = ["RayUnavailable", "run_on_ray"]
+__all__ = ["RayUnavailableError", "run_on_ray"]

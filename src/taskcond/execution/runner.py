@@ -17,7 +17,7 @@ import os
 import time
 from collections import Counter, defaultdict
 from collections.abc import Callable, Iterable, Iterator
-from dataclasses import asdict, dataclass, field, fields, replace
+from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -29,7 +29,7 @@ from taskcond.execution.skills import LIBRARY_FORMAT, SkillError, SkillLibrary
 from taskcond.execution.sources import EnvConditions, LLMConditions
 from taskcond.llm.models import cache_dir
 from taskcond.primitives import TaskNameError, parse_task
-from taskcond.results import ResultsFile, RunConfig, code_version, directory_digest, llm_identity
+from taskcond.results import ResultsFile, RunConfig, code_version, directory_digest, llm_fields
 from taskcond.sim.recording import VideoRecorder
 from taskcond.tasks.env import KitchenEnv
 from taskcond.tasks.registry import UnknownTaskError, get_task, list_tasks, make
@@ -269,16 +269,9 @@ def execution_config(
     Raises:
         LLMError: ``llm`` names no known backend or model.
     """
-    from taskcond.generator import ConditionGenerator
-
-    llm_name, llm_hash = llm_identity(llm)
-    generator = {f.name: f.default for f in fields(ConditionGenerator) if f.name != "backend"}
     return RunConfig(
         kind="execution",
-        llm=llm_name,
-        llm_model_hash=llm_hash,
-        prompt_version=generator.pop("prompt_version"),
-        generator=generator,
+        **llm_fields(llm),
         noise=noise,
         skills=directory_digest(library_dir) if library_dir.exists() else None,
         execution=asdict(execution or ExecutionConfig()),
