@@ -698,6 +698,14 @@ def reproduce(
             "--row", help="Only these rows (repeatable): a primitive id (grasp, ...) or LHT1..LHT2*."
         ),
     ] = None,
+    column: Annotated[
+        list[str] | None,
+        typer.Option(
+            "--column",
+            help="Only these columns (repeatable): generation-llm, generation-env, generalization-llm "
+            "(Table II); none, env, llm (Tables III, IV). The others show as not run.",
+        ),
+    ] = None,
     backend: BackendOption = "local",
     ray_address: RayAddressOption = None,
     noise: NoiseOption = 0.005,
@@ -708,7 +716,7 @@ def reproduce(
     import time
 
     from taskcond.execution.runner import Job
-    from taskcond.reproduce import only_rows, table_specs, trials_for, write_table
+    from taskcond.reproduce import only_columns, only_rows, table_specs, trials_for, write_table
 
     names = list(TABLES) if table == "all" else [table]
     if any(n not in TABLES for n in names):
@@ -720,10 +728,11 @@ def reproduce(
     for name in names:
         try:
             spec = only_rows(table_specs()[name], row) if row else table_specs()[name]
+            spec = only_columns(spec, column) if column else spec
         except ValueError as exc:
             if len(names) == 1:
                 fail(str(exc))
-            continue  # --row names rows of another table of "all"
+            continue  # --row or --column names rows or columns of another table of "all"
         n = episodes or spec.default_episodes
         trials = trials_for(spec, n)
         start = time.perf_counter()

@@ -15,6 +15,7 @@ whiskers, the paper's values as markers). The paper's values are in ``taskcond/d
 from __future__ import annotations
 
 import json
+import textwrap
 from collections import Counter
 from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field, replace
@@ -229,6 +230,29 @@ def only_rows(spec: TableSpec, keys: Iterable[str]) -> TableSpec:
     return replace(spec, blocks=blocks)
 
 
+def only_columns(spec: TableSpec, keys: Iterable[str]) -> TableSpec:
+    """``spec`` running only the columns whose key is in ``keys``; the others become "not run" cells.
+
+    Raises:
+        ValueError: a key names no column of ``spec``.
+    """
+    wanted = set(keys)
+    valid = [c.key for c in spec.columns]
+    unknown = sorted(wanted - set(valid))
+    if unknown:
+        raise ValueError(f"{spec.name} has no column {', '.join(unknown)}; valid: {', '.join(valid)}")
+    skipped = "not selected (--column)"
+    blocks = tuple(
+        replace(
+            b,
+            methods={k: m for k, m in b.methods.items() if k in wanted},
+            pending={**b.pending, **{k: skipped for k in b.methods if k not in wanted}},
+        )
+        for b in spec.blocks
+    )
+    return replace(spec, blocks=blocks)
+
+
 # -------------------------------------------------------------------------------------------- trials
 @dataclass(frozen=True)
 class Trial:
@@ -386,7 +410,8 @@ def table_json(spec: TableSpec, cells: dict[tuple, Cell], extra: dict[str, Any])
 
 def table_plot(spec: TableSpec, cells: dict[tuple, Cell], path: Path) -> None:
     """A bar chart per block: our success rate per row and column with its Wilson 95% interval as a
-    whisker, the paper's value as a black diamond (hollow where our cell is not run)."""
+    whisker, the paper's value as a black diamond at the bar's right (hollow where our cell is not run,
+    which is marked "not run")."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -397,7 +422,7 @@ def table_plot(spec: TableSpec, cells: dict[tuple, Cell], path: Path) -> None:
     fig, axes = plt.subplots(
         1,
         len(spec.blocks),
-        figsize=(2.0 + 1.3 * sum(widths), 4.2),
+        figsize=(max(8.0, 2.0 + 1.3 * sum(widths)), 4.6),
         sharey=True,
         squeeze=False,
         gridspec_kw={"width_ratios": widths},
@@ -418,19 +443,22 @@ def table_plot(spec: TableSpec, cells: dict[tuple, Cell], path: Path) -> None:
                     ax.errorbar(
                         xi, rate, yerr=[[rate - 100 * low], [100 * high - rate]], color="k", capsize=2
                     )
-                if cell.paper is not None:
-                    ax.plot(xi, cell.paper, "D", ms=5, mec="k", mfc="k" if cell.trials else "none")
+                elif cell.status == "not run":
+                    ax.text(xi, 2, "not run", rotation=90, ha="center", va="bottom", fontsize=7, color="0.5")
+                if cell.paper is not None:  # beside the whisker, not on it
+                    face = "k" if cell.trials else "none"
+                    ax.plot(xi + width / 3, cell.paper, "D", ms=5, mec="k", mfc=face)
         ax.set_xticks(x, [r.label for r in block.rows], rotation=30 if len(block.rows) > 4 else 0)
-        ax.set_title(block.label, fontsize=9)
+        ax.set_title(textwrap.fill(block.label, 28), fontsize=9)
         ax.set_ylim(0, 105)
+        ax.set_xlim(-0.5, len(block.rows) - 0.5)
     axes[0][0].set_ylabel("success rate, % (whiskers: Wilson 95% CI)")
     handles = [plt.Rectangle((0, 0), 1, 1, color=colors[j % len(colors)]) for j in range(n)]
     handles.append(plt.Line2D([], [], marker="D", color="k", ls="none"))
-    fig.legend(
-        handles, [*(c.label for c in spec.columns), "paper"], loc="lower center", ncol=n + 1, fontsize=8
-    )
+    labels = [*(c.label for c in spec.columns), "paper"]
+    fig.legend(handles, labels, loc="lower center", ncol=min(n + 1, 3), fontsize=8)
     fig.suptitle(spec.title, fontsize=10)
-    fig.tight_layout(rect=(0, 0.08, 1, 1))
+    fig.tight_layout(rect=(0, 0.12, 1, 1))
     fig.savefig(path, dpi=120)
     plt.close(fig)
 
@@ -516,6 +544,7 @@ __all__ = [
     "Trial",
     "build_cells",
     "condition_trial_runner",
+    "only_columns",
     "only_rows",
     "paper_values",
     "table_specs",
