@@ -465,11 +465,10 @@ def _run_episodes(jobs, out: Path, settings: ExecutionSettings, desc: str) -> tu
         default_library_dir,
         evaluate,
         execution_config,
-        job_key,
         make_source,
         plan_run,
     )
-    from taskcond.results import ConfigMismatchError, ResultsFile
+    from taskcond.results import ConfigMismatchError, Job, ResultsFile
 
     if settings.backend not in BACKENDS:
         fail(f"--backend {settings.backend!r}: use one of {', '.join(BACKENDS)}")
@@ -479,7 +478,7 @@ def _run_episodes(jobs, out: Path, settings: ExecutionSettings, desc: str) -> tu
         results = ResultsFile(out, execution_config(library_dir, settings.noise, settings.llm))
     except (ConfigMismatchError, LLMError) as exc:
         fail(str(exc))
-    done = results.done(job_key)
+    done = results.done(Job.key_of)
     todo = [j for j in jobs if j.key not in done]
     if any(j.method == "llm" for j in todo):  # every condition once here; the workers read the cache
         try:
@@ -634,6 +633,7 @@ def _reproduce_conditions(spec, trials, out: Path, llm: str | None, skills: Path
     from taskcond.reproduce import condition_trial_runner
     from taskcond.results import (
         ConfigMismatchError,
+        Job,
         ResultsFile,
         RunConfig,
         code_version,
@@ -650,7 +650,7 @@ def _reproduce_conditions(spec, trials, out: Path, llm: str | None, skills: Path
         results = ResultsFile(out, config)
     except (ConfigMismatchError, LLMError) as exc:
         fail(str(exc))
-    done = results.done(lambda r: (r["task"], r["method"], r["seed"]))
+    done = results.done(Job.key_of)
     todo = [t for t in trials if t.key not in done]
     run = condition_trial_runner(lambda: _generator(llm, 1, False), lambda: library)
     bar = tqdm(total=len(trials), desc=spec.name, unit="condition", file=sys.stderr, disable=None)
@@ -660,7 +660,7 @@ def _reproduce_conditions(spec, trials, out: Path, llm: str | None, skills: Path
         try:
             results.append(run(trial))
         except Exception as exc:
-            rec = {"task": trial.task, "method": trial.method, "seed": trial.seed, "crashed": True}
+            rec = trial.to_dict() | {"crashed": True}
             crashed.append(results.append(rec | {"error": f"{type(exc).__name__}: {exc}"[:300]}))
         bar.update()
     bar.close()
@@ -715,7 +715,6 @@ def reproduce(
     """Run the paper's Tables II-IV with our numbers beside the paper's, Wilson 95% intervals, plots."""
     import time
 
-    from taskcond.execution.runner import Job
     from taskcond.reproduce import only_columns, only_rows, table_specs, trials_for, write_table
 
     names = list(TABLES) if table == "all" else [table]
@@ -739,8 +738,7 @@ def reproduce(
         if spec.kind == "conditions":
             records, config = _reproduce_conditions(spec, trials, out / f"{name}.jsonl", llm, skills)
         else:
-            jobs = [Job(t.task, t.method, t.seed) for t in trials]
-            records, config = _run_episodes(jobs, out / f"{name}.jsonl", settings, name)
+            records, config = _run_episodes(trials, out / f"{name}.jsonl", settings, name)
         seconds = time.perf_counter() - start
         crashed += config["crashed"]
         footer = (

@@ -25,6 +25,7 @@ from pathlib import Path
 from typing import Any
 
 from taskcond.primitives import PRIMITIVES
+from taskcond.results import Job
 
 
 @dataclass(frozen=True)
@@ -254,30 +255,16 @@ def only_columns(spec: TableSpec, keys: Iterable[str]) -> TableSpec:
 
 
 # -------------------------------------------------------------------------------------------- trials
-@dataclass(frozen=True)
-class Trial:
-    """One unit of work of a table: an episode (task, method, seed) or a scored condition (primitive,
-    mode, trial index)."""
-
-    task: str
-    method: str
-    seed: int
-
-    @property
-    def key(self) -> tuple[str, str, int]:
-        return (self.task, self.method, self.seed)
-
-
-def trials_for(spec: TableSpec, episodes: int) -> list[Trial]:
+def trials_for(spec: TableSpec, episodes: int) -> list[Job]:
     """Every trial of ``spec`` with ``episodes`` per row task and method (each once, though a task may
     appear in several rows)."""
-    out: dict[tuple[str, str, int], Trial] = {}
+    out: dict[tuple[str, str, int], Job] = {}
     for block in spec.blocks:
         for row in block.rows:
             for method in block.methods.values():
                 for task in row.tasks:
                     for k in range(block.trials(method, episodes)):
-                        trial = Trial(task, method, spec.seed + k)
+                        trial = Job(task, method, spec.seed + k)
                         out.setdefault(trial.key, trial)
     return list(out.values())
 
@@ -484,7 +471,7 @@ def write_table(
 # --------------------------------------------------------------------------------- Table II trials
 def condition_trial_runner(
     generator_factory: Callable[[], Any], library_factory: Callable[[], Any]
-) -> Callable[[Trial], dict[str, Any]]:
+) -> Callable[[Job], dict[str, Any]]:
     """A function scoring one Table II trial as a results record: ``generation``/``generalization``
     with the LLM (:func:`~taskcond.evaluation.score_trial`), or ``env``: the FromEnv condition the
     skill library learned from the ``seed``-th demonstrated suite task of the primitive, against the
@@ -495,23 +482,23 @@ def condition_trial_runner(
 
     made: dict[str, Any] = {}
 
-    def run(trial: Trial) -> dict[str, Any]:
+    def run(trial: Job) -> dict[str, Any]:
         index = trial.seed - table_specs()["table2"].seed
         if trial.method == "env":
             if "library" not in made:
                 made["library"] = library_factory()
             skills = fromenv_skills(made["library"], trial.task)
             if index >= len(skills):
-                return {**trial_dict(trial), "skipped": True}
+                return {**trial.to_dict(), "skipped": True}
             skill = skills[index]
             task = parse_task(skill.task_name)
             correct = skill.condition is not None and skill.condition.matches(reference_condition(task))
-            return {**trial_dict(trial), "name": task.name, "correct": correct}
+            return {**trial.to_dict(), "name": task.name, "correct": correct}
         if "generator" not in made:
             made["generator"] = generator_factory()
         outcome = score_trial(made["generator"], trial.task, trial.method, index)
         return {
-            **trial_dict(trial),
+            **trial.to_dict(),
             "name": outcome.task,
             "correct": outcome.correct,
             "seconds": round(outcome.seconds, 3),
@@ -531,17 +518,12 @@ def fromenv_skills(library: Any, primitive: str) -> list[Any]:
     return sorted(skills, key=lambda s: ids.index(s.task_id))
 
 
-def trial_dict(trial: Trial) -> dict[str, Any]:
-    return {"task": trial.task, "method": trial.method, "seed": trial.seed}
-
-
 __all__ = [
     "Block",
     "Cell",
     "Column",
     "Row",
     "TableSpec",
-    "Trial",
     "build_cells",
     "condition_trial_runner",
     "only_columns",

@@ -146,6 +146,28 @@ def llm_fields(spec: str | None) -> dict[str, Any]:
     }
 
 
+@dataclass(frozen=True)
+class Job:
+    """One unit of work of an evaluation or a reproduced table: an episode (suite id, execution method,
+    reset seed) or a scored condition (primitive id, generation mode, trial index)."""
+
+    task: str
+    method: str
+    seed: int
+
+    @property
+    def key(self) -> tuple[str, str, int]:
+        return (self.task, self.method, self.seed)
+
+    @staticmethod
+    def key_of(record: dict[str, Any]) -> tuple[str, str, int]:
+        """The :attr:`key` of the job a results record belongs to."""
+        return (record["task"], record["method"], record["seed"])
+
+    def to_dict(self) -> dict[str, Any]:
+        return asdict(self)
+
+
 class ConfigMismatchError(ValueError):
     """A results file holds records of another configuration (or of no recorded configuration)."""
 
@@ -218,6 +240,7 @@ class ResultsFile:
 
 __all__ = [
     "ConfigMismatchError",
+    "Job",
     "ResultsFile",
     "RunConfig",
     "code_version",

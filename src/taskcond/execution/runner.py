@@ -29,7 +29,7 @@ from taskcond.execution.skills import LIBRARY_FORMAT, SkillError, SkillLibrary
 from taskcond.execution.sources import EnvConditions, LLMConditions
 from taskcond.llm.models import cache_dir
 from taskcond.primitives import TaskNameError, parse_task
-from taskcond.results import ResultsFile, RunConfig, code_version, directory_digest, llm_fields
+from taskcond.results import Job, ResultsFile, RunConfig, code_version, directory_digest, llm_fields
 from taskcond.sim.recording import VideoRecorder
 from taskcond.tasks.env import KitchenEnv
 from taskcond.tasks.registry import UnknownTaskError, get_task, list_tasks, make
@@ -230,19 +230,6 @@ def make_source(
 
 
 # ------------------------------------------------------------------------------------------ evaluation
-@dataclass(frozen=True)
-class Job:
-    """One evaluation episode: suite id, method, seed."""
-
-    task: str
-    method: str
-    seed: int
-
-    @property
-    def key(self) -> tuple[str, str, int]:
-        return (self.task, self.method, self.seed)
-
-
 def eval_task_ids(kind: str) -> list[str]:
     """Suite ids of ``kind``: ``primitives`` (every primitive task, the dual-arm fold included) or
     ``long-horizon``."""
@@ -277,11 +264,6 @@ def execution_config(
         execution=asdict(execution or ExecutionConfig()),
         code=code_version(),
     )
-
-
-def job_key(record: dict[str, Any]) -> tuple[str, str, int]:
-    """The (task, method, seed) of a results record, as :attr:`Job.key`."""
-    return (record["task"], record["method"], record["seed"])
 
 
 _WORKER: dict[str, Any] = {}
@@ -373,13 +355,13 @@ def evaluate(
     record as its episode ends; returns every result of ``jobs``. Crashed episodes are appended marked
     ``crashed`` and are not results: the next call runs them again."""
     wanted = {j.key for j in jobs}
-    done = results.done(job_key)
+    done = results.done(Job.key_of)
     todo = [j for j in jobs if j.key not in done]
     for rec in run_jobs(todo, (str(library_dir), llm, noise), workers, backend, ray_address):
         results.append(rec)
         if progress is not None:
             progress(rec)
-    return [r for r in results.results() if job_key(r) in wanted]
+    return [r for r in results.results() if Job.key_of(r) in wanted]
 
 
 def summarize(records: Iterable[dict[str, Any]]) -> list[dict[str, Any]]:
@@ -421,7 +403,6 @@ __all__ = [
     "eval_task_ids",
     "evaluate",
     "execution_config",
-    "job_key",
     "jobs_for",
     "load_library",
     "make_source",
