@@ -651,7 +651,8 @@ def _reproduce_conditions(spec, trials, out: Path, llm: str | None, skills: Path
     except (ConfigMismatchError, LLMError) as exc:
         fail(str(exc))
     done = results.done(Job.key_of)
-    todo = [t for t in trials if t.key not in done]
+    # by mode and trial: the prompts of one trial's order share their examples, which llama.cpp reuses
+    todo = sorted((t for t in trials if t.key not in done), key=lambda t: (t.method, t.seed))
     run = condition_trial_runner(lambda: _generator(llm, 1, False), lambda: library)
     bar = tqdm(total=len(trials), desc=spec.name, unit="condition", file=sys.stderr, disable=None)
     bar.update(len(trials) - len(todo))
@@ -742,7 +743,7 @@ def reproduce(
         seconds = time.perf_counter() - start
         crashed += config["crashed"]
         footer = (
-            f"{len(records)} trials, {n} per task and method (seeds {spec.seed}+); this invocation "
+            f"{sum(not r.get('skipped') for r in records)} trials, {n} per task and method (seeds {spec.seed}+); this invocation "
             f"{seconds / 60:.1f} min; configuration {config['digest']} (code {config['code']}, LLM "
             f"{config['llm']}, noise {config['noise']}); confidence intervals: Wilson score, 95%."
         )
