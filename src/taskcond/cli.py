@@ -742,8 +742,9 @@ def reproduce(
             records, config = _run_episodes(trials, out / f"{name}.jsonl", settings, name)
         seconds = time.perf_counter() - start
         crashed += config["crashed"]
+        used = sum(not r.get("skipped") for r in records)
         footer = (
-            f"{sum(not r.get('skipped') for r in records)} trials, {n} per task and method (seeds {spec.seed}+); this invocation "
+            f"{used} trials, {n} per task and method (seeds {spec.seed}+); this invocation "
             f"{seconds / 60:.1f} min; configuration {config['digest']} (code {config['code']}, LLM "
             f"{config['llm']}, noise {config['noise']}); confidence intervals: Wilson score, 95%."
         )

@@ -149,8 +149,8 @@ def table_specs() -> dict[str, TableSpec]:
                     "generation-env": "the condition read from the environment in each demonstration of "
                     "the suite's tasks of the primitive (one per task/object pair), correct = it holds "
                     "every pre-, post-condition and collision of the reference; it also holds the "
-                    "incidental relations and contacts of its demonstration (each record of table2.jsonl also says"
-                    " whether it matched exactly)",
+                    "incidental relations and contacts of its demonstration (each record of "
+                    "table2.jsonl also says whether it matched exactly)",
                 },
             ),
         ),
