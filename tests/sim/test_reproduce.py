@@ -110,3 +110,15 @@ def test_ray_gives_the_same_episodes_as_local_processes(library_dir, tmp_path):
         return {(r["task"], r["method"], r["seed"]): tuple(r[f] for f in fields) for r in records}
 
     assert len(remote) == 3 and by_key(remote) == by_key(local)
+
+
+def test_reproduce_table2_scores_the_demonstrations_conditions(library_dir, tmp_path):
+    """Table II's FromEnv column: each demonstration's condition against the reference (no LLM)."""
+    args = ["reproduce", "table2", "--row", "grasp", "--column", "generation-env"]
+    res = runner.invoke(app, [*args, "--skills", str(library_dir), "--out", str(tmp_path)])
+    assert res.exit_code == 0, res.output
+    cells = json.loads((tmp_path / "table2.json").read_text())["blocks"][0]["rows"][0]["cells"]
+    assert cells["generation-env"]["trials"] == 1  # the library holds one grasp demonstration
+    assert cells["generation-env"]["successes"] == 1 and cells["generation-env"]["paper"] == 100
+    assert cells["generation-llm"]["status"] == "not run"
+    assert cells["generalization-env"]["status"] == "infeasible"
