@@ -622,9 +622,6 @@ eval_app.command(
 )(_eval_command("long-horizon"))
 
 
-TABLES = ("table2", "table3", "table4")
-
-
 def _reproduce_conditions(spec, trials, out: Path, llm: str | None, skills: Path | None):
     """Table II's trials into ``out`` (resuming it); returns the results and the configuration."""
     from tqdm import tqdm
@@ -718,21 +715,25 @@ def reproduce(
 
     from taskcond.reproduce import only_columns, only_rows, table_specs, trials_for, write_table
 
-    names = list(TABLES) if table == "all" else [table]
-    if any(n not in TABLES for n in names):
-        fail(f"table {table!r}: use one of {', '.join(TABLES)} or all")
     _sim_import()
+    specs = table_specs()
+    names = list(specs) if table == "all" else [table]
+    if any(n not in specs for n in names):
+        fail(f"table {table!r}: use one of {', '.join(specs)} or all")
+    chosen = []
+    for name in names:
+        try:
+            spec = only_rows(specs[name], row) if row else specs[name]
+            chosen.append(only_columns(spec, column) if column else spec)
+        except ValueError as exc:
+            if len(names) == 1 or (name == names[-1] and not chosen):
+                fail(str(exc))
+            # else --row or --column names rows or columns of another table of "all"
     settings = ExecutionSettings(workers, noise, llm, skills, backend, ray_address)
     out.mkdir(parents=True, exist_ok=True)
     crashed = 0
-    for name in names:
-        try:
-            spec = only_rows(table_specs()[name], row) if row else table_specs()[name]
-            spec = only_columns(spec, column) if column else spec
-        except ValueError as exc:
-            if len(names) == 1:
-                fail(str(exc))
-            continue  # --row or --column names rows or columns of another table of "all"
+    for spec in chosen:
+        name = spec.name
         n = episodes or spec.default_episodes
         trials = trials_for(spec, n)
         start = time.perf_counter()
