@@ -4,7 +4,9 @@ A table is a :class:`TableSpec`: blocks of rows, and the columns each block fill
 execution method for Tables III and IV, a condition-generation mode for Table II). A column a block does
 not list is the paper's '-' (infeasible); a column listed under ``pending`` is a method we cannot run yet
 (the image-based imitation-learning baseline, the novel-primitive block) and shows as "not run", never
-as a number. Adding a row, block or column is one entry here.
+as a number. Adding a row, block or column is one entry here: once the runner knows a method (say
+``image-il``, or one for the novel-primitive episodes), moving its column key from a block's ``pending``
+to its ``methods`` makes ``taskcond reproduce`` run it, resume it and put it beside the paper's value.
 
 Results go to ``DIR/tableN.jsonl`` through :class:`~taskcond.results.ResultsFile` (configuration
 recorded, resumable, crashed work retried), and each table is written as ``tableN.md`` (ours beside the
