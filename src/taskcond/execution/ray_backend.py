@@ -29,18 +29,23 @@ def _connect(workers: int, address: str | None):
             "--backend ray needs Ray: pip install 'taskcond[ray]' (or use --backend local)"
         ) from None
     if ray.is_initialized():
-        return ray, False
+        return ray, False  # the caller's own Ray session: left as it is
     address = address or os.environ.get("RAY_ADDRESS") or None
     env = {k: os.environ[k] for k in ("TASKCOND_CACHE_DIR", "PYTHONPATH") if k in os.environ}
+    common = {
+        "include_dashboard": False,
+        "log_to_driver": False,
+        "logging_level": "ERROR",
+        "runtime_env": {"env_vars": env} if env else None,
+    }
     try:
-        ray.init(
-            address=address,
-            num_cpus=None if address else workers,
-            include_dashboard=False,
-            log_to_driver=False,
-            logging_level="ERROR",
-            runtime_env={"env_vars": env} if env else None,
-        )
+        if address:
+            ray.init(address=address, **common)
+        else:
+            try:
+                ray.init(address="auto", **common)  # the Ray already running on this machine
+            except ConnectionError:
+                ray.init(num_cpus=workers, **common)  # else a new local one
     except (ConnectionError, RuntimeError, ValueError) as exc:
         raise RayUnavailableError(
             f"cannot start or reach Ray at {address or 'a local instance'}: {' '.join(str(exc).split())}"
@@ -52,7 +57,7 @@ def run_on_ray(
     jobs: list[Job], init_args: tuple[str, str | None, float], workers: int, address: str | None = None
 ) -> Iterator[dict[str, Any]]:
     """The records of ``jobs`` as their Ray tasks finish (one CPU each)."""
-    ray, started = _connect(workers, address)
+    ray, connected = _connect(workers, address)
     try:
         remote = ray.remote(num_cpus=1, max_retries=0)(run_job)
         args = ray.put(init_args)
@@ -61,7 +66,7 @@ def run_on_ray(
             ready, pending = ray.wait(pending, num_returns=1)
             yield ray.get(ready[0])
     finally:
-        if started:
+        if connected:  # disconnect; a local instance we started stops with it
             ray.shutdown()
 
 
