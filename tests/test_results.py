@@ -84,3 +84,11 @@ def test_a_cell_shows_ours_beside_the_papers_value() -> None:
     )
     assert Cell("not run", 8.3, note="why").markdown() == "not run · paper 8.3%"
     assert Cell("infeasible", None).markdown() == "– · paper –"
+
+
+def test_the_generators_own_settings_are_recorded() -> None:
+    from taskcond.generator import ConditionGenerator
+
+    made = llm_fields("embedded", ConditionGenerator(backend=None, samples=3, prompt_version="v4"))  # type: ignore[arg-type]
+    assert made["prompt_version"] == "v4" and made["generator"]["samples"] == 3
+    assert llm_fields("embedded")["generator"]["samples"] == 1

@@ -220,6 +220,7 @@ def eval_conditions(
 
     from taskcond.evaluation import evaluate_conditions
     from taskcond.primitives import get_primitive
+    from taskcond.results import RunConfig, code_version, llm_fields
 
     try:
         pids = [get_primitive(p).id for p in primitive] if primitive else list(PRIMITIVES)
@@ -229,14 +230,17 @@ def eval_conditions(
     bar = tqdm(total=2 * trials * len(pids), desc="conditions", unit="cond", file=sys.stderr, disable=None)
     result = evaluate_conditions(gen, trials=trials, primitives=pids, progress=lambda _o: bar.update())
     bar.close()
+    config = RunConfig(kind="conditions", **llm_fields(llm, gen), code=code_version())
     if as_json:
-        typer.echo(json.dumps(result.to_dict(), indent=2))
+        made = {"config": config.to_dict(), "digest": config.digest}
+        typer.echo(json.dumps(result.to_dict() | made, indent=2))
     else:
         typer.echo(result.table())
         typer.echo(
             f"\nmodel {result.model}; median seconds per condition: "
             f"generation {result.median_seconds('generation'):.2f}, "
-            f"generalization {result.median_seconds('generalization'):.2f}"
+            f"generalization {result.median_seconds('generalization'):.2f}; configuration {config.digest} "
+            f"(prompts {config.prompt_version}, code {config.code})"
         )
 
 

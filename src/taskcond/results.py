@@ -123,10 +123,11 @@ def directory_digest(directory: Path) -> str:
     return f"{directory.name}@{digest.hexdigest()[:12]}"
 
 
-def llm_fields(spec: str | None) -> dict[str, Any]:
+def llm_fields(spec: str | None, generator: Any = None) -> dict[str, Any]:
     """The LLM fields of a :class:`RunConfig` for the ``--llm`` spec as resolved by
     :meth:`~taskcond.llm.config.LLMConfig.load` (which raises LLMError on a bad spec): backend and model,
-    the embedded model's pinned hash, and the condition generator's default settings."""
+    the embedded model's pinned hash, and the settings of the condition generator ``generator`` (its
+    defaults when None)."""
     from taskcond.generator import ConditionGenerator
     from taskcond.llm.config import LLMConfig
     from taskcond.llm.models import DEFAULT_EMBEDDED_MODEL, get_embedded_model
@@ -137,12 +138,16 @@ def llm_fields(spec: str | None) -> dict[str, Any]:
         name, digest = f"embedded:{model.name}", model.sha256[:16]
     else:
         name, digest = f"openai:{cfg.model}" + (f"@{cfg.base_url}" if cfg.base_url else ""), None
-    generator = {f.name: f.default for f in fields(ConditionGenerator) if f.name != "backend"}
+    settings = {
+        f.name: f.default if generator is None else getattr(generator, f.name)
+        for f in fields(ConditionGenerator)
+        if f.name != "backend"
+    }
     return {
         "llm": name,
         "llm_model_hash": digest,
-        "prompt_version": generator.pop("prompt_version"),
-        "generator": generator,
+        "prompt_version": settings.pop("prompt_version"),
+        "generator": settings,
     }
 
 
