@@ -56,15 +56,22 @@ def _connect(workers: int, address: str | None):
 def run_on_ray(
     jobs: list[Job], init_args: tuple[str, str | None, float], workers: int, address: str | None = None
 ) -> Iterator[dict[str, Any]]:
-    """The records of ``jobs`` as their Ray tasks finish (one CPU each)."""
+    """The records of ``jobs`` as their Ray tasks finish (one CPU each); a task whose worker died is a
+    ``crashed`` record, like an episode that raised."""
     ray, connected = _connect(workers, address)
     try:
         remote = ray.remote(num_cpus=1, max_retries=0)(run_job)
         args = ray.put(init_args)
-        pending = [remote.remote(job, args) for job in jobs]
+        submitted = {remote.remote(job, args): job for job in jobs}
+        pending = list(submitted)
         while pending:
             ready, pending = ray.wait(pending, num_returns=1)
-            yield ray.get(ready[0])
+            try:
+                yield ray.get(ready[0])
+            except ray.exceptions.RayError as exc:  # the worker died (a crash, retried on resume)
+                job = submitted[ready[0]]
+                error = f"{type(exc).__name__}: {' '.join(str(exc).split())[:300]}"
+                yield job.to_dict() | {"crashed": True, "error": error}
     finally:
         if connected:  # disconnect; a local instance we started stops with it
             ray.shutdown()
