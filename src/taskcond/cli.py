@@ -574,7 +574,7 @@ def _eval_execution(
     if walls:
         typer.echo(
             f"\n{len(records)} episodes in {out}; {60.0 / (sum(walls) / len(walls)):.1f} episodes per minute "
-            "per core (mean episode wall time)"
+            f"per core (mean episode wall time); configuration {config['digest']} (code {config['code']})"
         )
 
 
