@@ -431,7 +431,7 @@ BackendOption = Annotated[
     str,
     typer.Option(
         "--backend",
-        help="Where episodes run: local (worker processes here) or ray (Ray tasks; extra [ray]).",
+        help="Where episodes run: local (worker processes here) or ray (Ray tasks; needs the ray extra).",
     ),
 ]
 RayAddressOption = Annotated[
