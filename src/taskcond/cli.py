@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import json
 import sys
-from dataclasses import asdict
+from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Annotated, NoReturn
 
@@ -220,6 +220,7 @@ def eval_conditions(
 
     from taskcond.evaluation import evaluate_conditions
     from taskcond.primitives import get_primitive
+    from taskcond.results import RunConfig, code_version, llm_fields
 
     try:
         pids = [get_primitive(p).id for p in primitive] if primitive else list(PRIMITIVES)
@@ -229,14 +230,17 @@ def eval_conditions(
     bar = tqdm(total=2 * trials * len(pids), desc="conditions", unit="cond", file=sys.stderr, disable=None)
     result = evaluate_conditions(gen, trials=trials, primitives=pids, progress=lambda _o: bar.update())
     bar.close()
+    config = RunConfig(kind="conditions", **llm_fields(llm, gen), code=code_version())
     if as_json:
-        typer.echo(json.dumps(result.to_dict(), indent=2))
+        made = {"config": config.to_dict(), "digest": config.digest}
+        typer.echo(json.dumps(result.to_dict() | made, indent=2))
     else:
         typer.echo(result.table())
         typer.echo(
             f"\nmodel {result.model}; median seconds per condition: "
             f"generation {result.median_seconds('generation'):.2f}, "
-            f"generalization {result.median_seconds('generalization'):.2f}"
+            f"generalization {result.median_seconds('generalization'):.2f}; configuration {config.digest} "
+            f"(prompts {config.prompt_version}, code {config.code})"
         )
 
 
@@ -256,7 +260,7 @@ PlannerOption = Annotated[
     str,
     typer.Option(
         "--planner",
-        help="conditions (default): check the plan against the start state with the task conditions and "
+        help="conditions: check the plan against the start state with the task conditions and "
         "repair it before moving (insert, drop, reorder); none: run the plan as given, the paper's "
         "behaviour (Alg. 1 alone).",
     ),
@@ -381,7 +385,15 @@ def run(
     from taskcond.execution.decompose import DecompositionError, decompose
     from taskcond.execution.executor import METHODS
     from taskcond.execution.kitchen import STARTS, scene_objects
-    from taskcond.execution.runner import PLANNERS, make_source, plan_run, refused_task, run_episode
+    from taskcond.execution.runner import (
+        PLANNERS,
+        default_library_dir,
+        execution_config,
+        make_source,
+        plan_run,
+        refused_task,
+        run_episode,
+    )
 
     if method not in METHODS:
         fail(f"--method {method!r}: use one of {', '.join(METHODS)}")
@@ -437,6 +449,7 @@ def run(
             typer.echo(f"  (left to Alg. 1: {left})")
         typer.echo(f"goal: {', '.join(map(str, goal)) or 'none (no predicate to check)'}")
 
+    config = execution_config(skills or default_library_dir(), noise, llm, planner=planner, start=start)
     result = run_episode(
         plan,
         method,  # type: ignore[arg-type]
@@ -462,6 +475,7 @@ def run(
                     "scene": plan.scene,
                 }
             }
+            | {"config": config.to_dict(), "digest": config.digest}
             | asdict(result),
             indent=1,
         ),
@@ -478,39 +492,132 @@ def run(
         raise typer.Exit(1)
 
 
+BackendOption = Annotated[
+    str,
+    typer.Option(
+        "--backend",
+        help="Where episodes run: local (worker processes here) or ray (Ray tasks; needs the ray extra).",
+    ),
+]
+RayAddressOption = Annotated[
+    str | None,
+    typer.Option(
+        "--ray-address",
+        help="Ray cluster to use with --backend ray (default: $RAY_ADDRESS, the Ray running on this "
+        "machine, else a new local one).",
+    ),
+]
+
+
+@dataclass(frozen=True)
+class ExecutionSettings:
+    """The options every episode-running command shares (eval primitives|long-horizon, reproduce)."""
+
+    workers: int | None = None
+    noise: float = 0.005
+    llm: str | None = None
+    skills: Path | None = None
+    backend: str = "local"
+    ray_address: str | None = None
+    planner: str = "conditions"
+
+
+def _run_episodes(jobs, out: Path, settings: ExecutionSettings, desc: str) -> tuple[list[dict], dict]:
+    """Run ``jobs`` into the results file ``out`` (resuming it) with a progress bar; returns the results
+    and the run's configuration (with its digest). Ends with exit 2 when ``out`` holds another
+    configuration; crashed episodes are reported on stderr and left out (the next call runs them again),
+    see :func:`_crashed`."""
+    from tqdm import tqdm
+
+    from taskcond.execution.runner import (
+        BACKENDS,
+        PLANNERS,
+        cpu_count,
+        default_library_dir,
+        evaluate,
+        execution_config,
+        make_source,
+        plan_run,
+    )
+    from taskcond.results import ConfigMismatchError, Job, ResultsFile
+
+    if settings.backend not in BACKENDS:
+        fail(f"--backend {settings.backend!r}: use one of {', '.join(BACKENDS)}")
+    if settings.planner not in PLANNERS:
+        fail(f"--planner {settings.planner!r}: use one of {', '.join(PLANNERS)}")
+    library = _library(settings.skills)
+    library_dir = settings.skills or default_library_dir()
+    try:
+        config = execution_config(library_dir, settings.noise, settings.llm, planner=settings.planner)
+        results = ResultsFile(out, config)
+    except (ConfigMismatchError, LLMError) as exc:
+        fail(str(exc))
+    done = results.done(Job.key_of)
+    todo = [j for j in jobs if j.key not in done]
+    if any(j.method == "llm" for j in todo):  # every condition once here; the workers read the cache
+        try:
+            source = make_source("llm", library, settings.llm)
+            names = {s for j in todo if j.method == "llm" for s in plan_run(j.task).steps}
+            for name in tqdm(sorted(names), desc="conditions", unit="task", file=sys.stderr, disable=None):
+                source.condition(name)  # type: ignore[union-attr]
+        except (LLMError, TaskNameError, ConditionError) as exc:
+            fail(str(exc))
+    bar = tqdm(total=len(jobs), desc=desc, unit="episode", file=sys.stderr, disable=None)
+    bar.update(len(jobs) - len(todo))
+    crashed: list[dict] = []
+
+    def told(rec: dict) -> None:
+        bar.update()
+        if rec.get("crashed"):
+            crashed.append(rec)
+
+    try:
+        records = evaluate(
+            jobs,
+            results,
+            library_dir,
+            settings.workers or cpu_count(),
+            settings.llm,
+            settings.noise,
+            progress=told,
+            planner=settings.planner,
+            backend=settings.backend,
+            ray_address=settings.ray_address,
+        )
+    except RuntimeError as exc:  # Ray missing or unreachable
+        fail(str(exc))
+    bar.close()
+    _crashed(crashed)
+    config = results.config
+    return records, config.to_dict() | {"digest": config.digest, "crashed": len(crashed)}
+
+
+def _crashed(crashed: list[dict]) -> None:
+    """Report crashed trials (exceptions, not task failures) on stderr."""
+    if crashed:
+        first = crashed[0]
+        typer.echo(
+            f"error: {len(crashed)} trial(s) crashed and were not counted (first: {first['task']} "
+            f"{first['method']} seed {first['seed']}: {first['error']}); run the same command again to "
+            f"retry them",
+            err=True,
+        )
+
+
 def _eval_execution(
     kind: str,
     episodes: int,
     method: list[str] | None,
-    workers: int | None,
     as_json: bool,
     out: Path | None,
     task: list[str] | None,
     seed: int,
-    noise: float,
-    llm: str | None,
-    skills: Path | None,
-    planner: str = "conditions",
+    settings: ExecutionSettings,
 ) -> None:
     _sim_import()
-    from tqdm import tqdm
-
     from taskcond.execution.executor import METHODS
-    from taskcond.execution.runner import (
-        PLANNERS,
-        cpu_count,
-        default_library_dir,
-        eval_task_ids,
-        evaluate,
-        jobs_for,
-        make_source,
-        plan_run,
-        read_results,
-        summarize,
-    )
+    from taskcond.execution.runner import eval_task_ids, jobs_for, summarize
 
-    if planner not in PLANNERS:
-        fail(f"--planner {planner!r}: use one of {', '.join(PLANNERS)}")
     methods = method or list(METHODS)
     bad = [m for m in methods if m not in METHODS]
     if bad:
@@ -521,34 +628,11 @@ def _eval_execution(
         if unknown:
             fail(f"{unknown[0]!r} is not a {kind} task of the evaluation; valid: {', '.join(ids)}")
         ids = task
-    library = _library(skills)
-    if "llm" in methods:  # generate every condition once here, so that the workers read them from the cache
-        try:
-            source = make_source("llm", library, llm)
-            names = {s for tid in ids for s in plan_run(tid).steps}
-            for name in tqdm(sorted(names), desc="conditions", unit="task", file=sys.stderr, disable=None):
-                source.condition(name)  # type: ignore[union-attr]
-        except (LLMError, TaskNameError, ConditionError) as exc:
-            fail(str(exc))
     jobs = jobs_for(ids, methods, episodes, seed)
     out = out or Path("runs") / f"eval-{kind}.jsonl"
-    workers = workers or cpu_count()
-    bar = tqdm(total=len(jobs), desc=kind, unit="episode", file=sys.stderr, disable=None)
-    done = {
-        (r["task"], r["method"], r["seed"]) for r in read_results(out) if r.get("planner", "none") == planner
-    }
-    bar.update(sum(j.key in done for j in jobs))
-    records = evaluate(
-        jobs,
-        out,
-        skills or default_library_dir(),
-        workers,
-        llm,
-        noise,
-        progress=lambda _r: bar.update(),
-        planner=planner,
-    )
-    bar.close()
+    records, config = _run_episodes(jobs, out, settings, kind)
+    if config["crashed"]:
+        raise typer.Exit(1)
     rows = summarize(records)
     walls = [r["wall_seconds"] for r in records if "wall_seconds" in r]
     if as_json:
@@ -561,7 +645,7 @@ def _eval_execution(
     if walls:
         typer.echo(
             f"\n{len(records)} episodes in {out}; {60.0 / (sum(walls) / len(walls)):.1f} episodes per minute "
-            "per core (mean episode wall time)"
+            f"per core (mean episode wall time); configuration {config['digest']} (code {config['code']})"
         )
 
 
@@ -584,8 +668,9 @@ def _eval_command(kind: str):
             Path | None,
             typer.Option(
                 "--out",
-                help="JSON-lines results, appended per episode; an interrupted run resumes from it "
-                "(default runs/eval-primitives.jsonl or runs/eval-long-horizon.jsonl).",
+                help="JSON-lines results, appended per episode; it records the configuration, and a run "
+                "with the same configuration resumes from it (another configuration is an error). "
+                "Default runs/eval-primitives.jsonl or runs/eval-long-horizon.jsonl.",
             ),
         ] = None,
         task: Annotated[
@@ -596,10 +681,11 @@ def _eval_command(kind: str):
         llm: LlmOption = None,
         skills: SkillsOption = None,
         planner: PlannerOption = "conditions",
+        backend: BackendOption = "local",
+        ray_address: RayAddressOption = None,
     ) -> None:
-        _eval_execution(
-            kind, episodes, method, workers, as_json, out, task, seed, noise, llm, skills, planner
-        )
+        settings = ExecutionSettings(workers, noise, llm, skills, backend, ray_address, planner)
+        _eval_execution(kind, episodes, method, as_json, out, task, seed, settings)
 
     return command
 
@@ -610,6 +696,143 @@ eval_app.command("primitives", help="Success rate of every primitive task per ex
 eval_app.command(
     "long-horizon", help="Success rate of the long-horizon tasks per execution method (Table IV)."
 )(_eval_command("long-horizon"))
+
+
+def _reproduce_conditions(spec, trials, out: Path, llm: str | None, skills: Path | None):
+    """Table II's trials into ``out`` (resuming it); returns the results and the configuration."""
+    from tqdm import tqdm
+
+    from taskcond.execution.runner import default_library_dir
+    from taskcond.reproduce import condition_trial_runner
+    from taskcond.results import (
+        ConfigMismatchError,
+        Job,
+        ResultsFile,
+        RunConfig,
+        code_version,
+        directory_digest,
+        llm_fields,
+    )
+
+    library = _library(skills)
+    library_dir = skills or default_library_dir()
+    try:
+        config = RunConfig(
+            kind="conditions", **llm_fields(llm), skills=directory_digest(library_dir), code=code_version()
+        )
+        results = ResultsFile(out, config)
+    except (ConfigMismatchError, LLMError) as exc:
+        fail(str(exc))
+    done = results.done(Job.key_of)
+    # by mode and trial: the prompts of one trial's order share their examples, which llama.cpp reuses
+    todo = sorted((t for t in trials if t.key not in done), key=lambda t: (t.method, t.seed))
+    run = condition_trial_runner(lambda: _generator(llm, 1, False), lambda: library)
+    bar = tqdm(total=len(trials), desc=spec.name, unit="condition", file=sys.stderr, disable=None)
+    bar.update(len(trials) - len(todo))
+    crashed = []
+    for trial in todo:
+        try:
+            results.append(run(trial))
+        except Exception as exc:
+            rec = trial.to_dict() | {"crashed": True}
+            crashed.append(results.append(rec | {"error": f"{type(exc).__name__}: {exc}"[:300]}))
+        bar.update()
+    bar.close()
+    _crashed(crashed)
+    return results.results(), config.to_dict() | {"digest": config.digest, "crashed": len(crashed)}
+
+
+@app.command()
+def reproduce(
+    table: Annotated[str, typer.Argument(help="table2, table3, table4 or all.")],
+    out: Annotated[
+        Path,
+        typer.Option(
+            "--out",
+            help="Directory for tableN.md/.json/.png and the resumable results tableN.jsonl (a rerun with "
+            "the same configuration resumes; another configuration is an error).",
+        ),
+    ],
+    episodes: Annotated[
+        int | None,
+        typer.Option(
+            "--episodes",
+            min=1,
+            help="Episodes (Table II: trials) per task and method; default per table: Table II 2 trials "
+            "per primitive, Table III 2 episodes per primitive task (37 of them), Table IV 5 per "
+            "long-horizon task.",
+        ),
+    ] = None,
+    workers: Annotated[
+        int | None, typer.Option("--workers", min=1, help="Worker processes (default: one per core).")
+    ] = None,
+    row: Annotated[
+        list[str] | None,
+        typer.Option(
+            "--row", help="Only these rows (repeatable): a primitive id (grasp, ...) or LHT1..LHT2*."
+        ),
+    ] = None,
+    column: Annotated[
+        list[str] | None,
+        typer.Option(
+            "--column",
+            help="Only these columns (repeatable): generation-llm, generation-env, generalization-llm "
+            "(Table II); none, env, llm (Tables III, IV). The others show as not run.",
+        ),
+    ] = None,
+    backend: BackendOption = "local",
+    ray_address: RayAddressOption = None,
+    noise: NoiseOption = 0.005,
+    llm: LlmOption = None,
+    skills: SkillsOption = None,
+    planner: PlannerOption = "none",
+) -> None:
+    """Run the paper's Tables II-IV with our numbers beside the paper's, Wilson 95% intervals, plots.
+    The paper's protocol runs each sequence as given (``--planner none``, the default here)."""
+    import time
+
+    from taskcond.reproduce import only_columns, only_rows, table_specs, trials_for, write_table
+
+    _sim_import()
+    specs = table_specs()
+    names = list(specs) if table == "all" else [table]
+    if any(n not in specs for n in names):
+        fail(f"table {table!r}: use one of {', '.join(specs)} or all")
+    chosen = []
+    for name in names:
+        try:
+            spec = only_rows(specs[name], row) if row else specs[name]
+            chosen.append(only_columns(spec, column) if column else spec)
+        except ValueError as exc:
+            if len(names) == 1 or (name == names[-1] and not chosen):
+                fail(str(exc))
+            # else --row or --column names rows or columns of another table of "all"
+    settings = ExecutionSettings(workers, noise, llm, skills, backend, ray_address, planner)
+    out.mkdir(parents=True, exist_ok=True)
+    crashed = 0
+    for spec in chosen:
+        name = spec.name
+        n = episodes or spec.default_episodes
+        trials = trials_for(spec, n)
+        start = time.perf_counter()
+        if spec.kind == "conditions":
+            records, config = _reproduce_conditions(spec, trials, out / f"{name}.jsonl", llm, skills)
+        else:
+            records, config = _run_episodes(trials, out / f"{name}.jsonl", settings, name)
+        seconds = time.perf_counter() - start
+        crashed += config["crashed"]
+        used = sum(not r.get("skipped") for r in records)
+        footer = (
+            f"{used} trials, {n} per task and method (seeds {spec.seed}+); this invocation "
+            f"{seconds / 60:.1f} min; configuration {config['digest']} (code {config['code']}, LLM "
+            f"{config['llm']}, noise {config['noise']}); confidence intervals: Wilson score, 95%."
+        )
+        extra = {"episodes": n, "seconds": round(seconds, 1), "config": config}
+        write_table(spec, records, n, out, extra, footer)
+        typer.echo((out / f"{name}.md").read_text(encoding="utf-8"))
+        typer.echo(f"wrote {out / name}.md, .json, .png", err=True)
+    if crashed:
+        raise typer.Exit(1)
 
 
 def main(args: list[str] | None = None) -> NoReturn:

@@ -150,25 +150,29 @@ def evaluate_conditions(
     for mode in modes:
         for pid in pids:
             for trial in range(trials):
-                objects = EVAL_OBJECTS[pid][trial % len(EVAL_OBJECTS[pid])]
-                task = ParsedTask(PRIMITIVES[pid], objects)
-                exclude = (pid,) if mode == "generalization" else ()
+                outcome = score_trial(generator, pid, mode, trial)
                 score = getattr(result, mode)[pid]
                 score.trials += 1
-                start = time.perf_counter()
-                try:
-                    gen = generator.generate(task, exclude=exclude, order_seed=trial, seed=trial)
-                except LLMError as exc:
-                    outcome = Outcome(pid, mode, task.name, False, time.perf_counter() - start, str(exc))
-                    score.failures["no valid answer"] += 1
+                if outcome.correct:
+                    score.correct += 1
                 else:
-                    correct = gen.condition.matches(reference_condition(task))
-                    outcome = Outcome(pid, mode, task.name, correct, gen.seconds)
-                    if correct:
-                        score.correct += 1
-                    else:
-                        score.failures["wrong condition"] += 1
+                    score.failures["no valid answer" if outcome.error else "wrong condition"] += 1
                 result.outcomes.append(outcome)
                 if progress is not None:
                     progress(outcome)
     return result
+
+
+def score_trial(generator: ConditionGenerator, primitive: str, mode: str, trial: int) -> Outcome:
+    """Trial ``trial`` of the Table II protocol for ``primitive`` in ``mode`` (``generation`` or
+    ``generalization``): the task of :data:`EVAL_OBJECTS` entry ``trial % 5``, the example order and the
+    sampling seeded by ``trial``. An LLM failure is an incorrect outcome with its reason."""
+    objects = EVAL_OBJECTS[primitive][trial % len(EVAL_OBJECTS[primitive])]
+    task = ParsedTask(PRIMITIVES[primitive], objects)
+    exclude = (primitive,) if mode == "generalization" else ()
+    start = time.perf_counter()
+    try:
+        gen = generator.generate(task, exclude=exclude, order_seed=trial, seed=trial)
+    except LLMError as exc:
+        return Outcome(primitive, mode, task.name, False, time.perf_counter() - start, str(exc))
+    return Outcome(primitive, mode, task.name, gen.condition.matches(reference_condition(task)), gen.seconds)

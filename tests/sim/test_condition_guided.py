@@ -206,9 +206,9 @@ def test_run_and_eval_commands(library_dir, tmp_path) -> None:
     rows = json.loads(res.output[res.output.index("{") :])["results"]
     assert rows[0]["task"] == "LHT1" and rows[0]["episodes"] == 2
     lines = out.read_text().splitlines()
-    assert len(lines) == 2
+    assert len(lines) == 3  # the configuration, then the episodes
     again = runner.invoke(app, args)  # resumes: nothing left to run, nothing appended
-    assert again.exit_code == 0 and len(out.read_text().splitlines()) == 2
+    assert again.exit_code == 0 and len(out.read_text().splitlines()) == 3
 
 
 @pytest.mark.llm

@@ -7,18 +7,19 @@ look-ahead planner (:mod:`taskcond.execution.planner`, unless ``planner="none"``
 runs them through the :class:`~taskcond.execution.executor.Executor`, and judges success with the task's
 ground-truth check, or for a free instruction with its goal predicates (:func:`~taskcond.execution.planner.
 goal_of`) judged by the ground truth. Every episode records the predicates that hold at its end.
-Evaluations run episodes in worker processes (one per core), append every finished episode to a JSON-lines
-file at once, and skip the episodes already in it, so an interrupted evaluation resumes where it stopped.
+Evaluations run episodes in worker processes (one per core) or as Ray tasks, append every finished episode
+to a JSON-lines results file at once, and skip the episodes already in it, so an interrupted evaluation
+resumes where it stopped. The file records the run's configuration (:class:`~taskcond.results.RunConfig`)
+and holds that configuration's episodes only.
 """
 
 from __future__ import annotations
 
-import json
 import multiprocessing
 import os
 import time
 from collections import Counter, defaultdict
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Iterator
 from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 from typing import Any
@@ -41,6 +42,7 @@ from taskcond.execution.skills import LIBRARY_FORMAT, SkillError, SkillLibrary
 from taskcond.execution.sources import EnvConditions, LLMConditions
 from taskcond.llm.models import cache_dir
 from taskcond.primitives import TaskNameError, parse_task
+from taskcond.results import Job, ResultsFile, RunConfig, code_version, directory_digest, llm_fields
 from taskcond.sim.recording import VideoRecorder
 from taskcond.tasks.registry import UnknownTaskError, get_task, list_tasks, make
 
@@ -366,19 +368,6 @@ def make_source(
 
 
 # ------------------------------------------------------------------------------------------ evaluation
-@dataclass(frozen=True)
-class Job:
-    """One evaluation episode: suite id, method, seed."""
-
-    task: str
-    method: str
-    seed: int
-
-    @property
-    def key(self) -> tuple[str, str, int]:
-        return (self.task, self.method, self.seed)
-
-
 def eval_task_ids(kind: str) -> list[str]:
     """Suite ids of ``kind``: ``primitives`` (every primitive task, the dual-arm fold included) or
     ``long-horizon``."""
@@ -395,27 +384,52 @@ def jobs_for(tasks: Iterable[str], methods: Iterable[str], episodes: int, seed: 
     return [Job(t, m, seed + k) for t in tasks for m in methods for k in range(episodes)]
 
 
-def read_results(path: Path) -> list[dict[str, Any]]:
-    """The records of a JSON-lines results file; a torn last line (an interrupted write) is skipped."""
-    if not path.exists():
-        return []
-    records = []
-    for line in path.read_text(encoding="utf-8").splitlines():
-        try:
-            records.append(json.loads(line))
-        except json.JSONDecodeError:
-            continue
-    return records
+def execution_config(
+    library_dir: Path,
+    noise: float,
+    llm: str | None = None,
+    execution: ExecutionConfig | None = None,
+    planner: str = "conditions",
+    start: str = "task",
+) -> RunConfig:
+    """The :class:`~taskcond.results.RunConfig` of episodes run with the skill library at ``library_dir``,
+    perception noise ``noise``, LLM conditions from ``llm`` (the ``--llm`` spec; resolved as
+    :func:`make_source` does), the executor constants ``execution`` (default ones when None), the plan
+    repair ``planner`` and the start state ``start``.
+
+    Raises:
+        LLMError: ``llm`` names no known backend or model.
+    """
+    return RunConfig(
+        kind="execution",
+        **llm_fields(llm),
+        noise=noise,
+        skills=directory_digest(library_dir) if library_dir.exists() else None,
+        execution=asdict(execution or ExecutionConfig()),
+        planner=planner,
+        start=start,
+        code=code_version(),
+    )
 
 
 _WORKER: dict[str, Any] = {}
 
 
 def _init_worker(library_dir: str, llm: str | None, noise: float, planner: str = "conditions") -> None:
-    _WORKER.update(library=SkillLibrary.load(library_dir), llm=llm, noise=noise, sources={}, planner=planner)
+    _WORKER.clear()
+    _WORKER.update(
+        args=(library_dir, llm, noise, planner),
+        library=SkillLibrary.load(library_dir),
+        llm=llm,
+        noise=noise,
+        sources={},
+        planner=planner,
+    )
 
 
 def _run_job(job: Job) -> dict[str, Any]:
+    """One episode as a results record; an exception is returned as a ``crashed`` record (not a
+    result: a resumed evaluation runs it again)."""
     library: SkillLibrary = _WORKER["library"]
     sources: dict[str, ConditionSource | None] = _WORKER["sources"]
     method: Method = job.method  # type: ignore[assignment]
@@ -432,61 +446,78 @@ def _run_job(job: Job) -> dict[str, Any]:
             planner=_WORKER["planner"],
         )
         return result.summary()
-    except Exception as exc:  # an episode that crashes is a failed episode with its reason
+    except Exception as exc:
         return {
             "task": job.task,
             "method": job.method,
             "seed": job.seed,
-            "success": False,
-            "planner": _WORKER["planner"],
-            "failure": f"crash:{type(exc).__name__}",
-            "reason": " ".join(str(exc).split())[:300],
+            "crashed": True,
+            "error": f"{type(exc).__name__}: {' '.join(str(exc).split())[:300]}",
         }
+
+
+def run_job(job: Job, init_args: tuple[str, str | None, float, str]) -> dict[str, Any]:
+    """:func:`_run_job` in a process that keeps its skill library and condition sources between calls
+    with the same ``init_args`` (library directory, LLM spec, noise, planner): a Ray task's entry point."""
+    if _WORKER.get("args") != init_args:
+        _init_worker(*init_args)
+    return _run_job(job)
+
+
+BACKENDS = ("local", "ray")
+"""Where evaluation episodes run: ``local`` (worker processes on this machine) or ``ray`` (Ray tasks)."""
+
+
+def run_jobs(
+    jobs: list[Job],
+    init_args: tuple[str, str | None, float, str],
+    workers: int = 1,
+    backend: str = "local",
+    ray_address: str | None = None,
+) -> Iterator[dict[str, Any]]:
+    """The records of ``jobs`` in the order they finish: in this process (``workers`` 1), in ``workers``
+    spawned processes, or as Ray tasks (:mod:`taskcond.execution.ray_backend`)."""
+    if backend not in BACKENDS:
+        raise ValueError(f"unknown backend {backend!r}; valid: {', '.join(BACKENDS)}")
+    if not jobs:
+        return
+    if backend == "ray":
+        from taskcond.execution.ray_backend import run_on_ray
+
+        yield from run_on_ray(jobs, init_args, workers, ray_address)
+    elif workers <= 1:
+        _init_worker(*init_args)
+        for job in jobs:
+            yield _run_job(job)
+    else:
+        ctx = multiprocessing.get_context("spawn")
+        with ctx.Pool(workers, _init_worker, init_args) as pool:
+            yield from pool.imap_unordered(_run_job, jobs)
 
 
 def evaluate(
     jobs: list[Job],
-    out: Path,
+    results: ResultsFile,
     library_dir: Path,
     workers: int = 1,
     llm: str | None = None,
     noise: float = DEFAULT_NOISE,
     progress: Callable[[dict[str, Any]], None] | None = None,
     planner: str = "conditions",
+    backend: str = "local",
+    ray_address: str | None = None,
 ) -> list[dict[str, Any]]:
-    """Run the jobs not yet in ``out`` (JSON lines, appended as each episode ends) in ``workers``
-    processes with ``planner``; returns every record of ``out`` that belongs to ``jobs`` and was made
-    with ``planner`` (a record without one was made before the planner existed: ``none``)."""
+    """Run the jobs that ``results`` (the file of this configuration) does not hold yet with ``planner``,
+    appending each record as its episode ends; returns every result of ``jobs``. Crashed episodes are
+    appended marked ``crashed`` and are not results: the next call runs them again."""
     wanted = {j.key for j in jobs}
-    done = {(r["task"], r["method"], r["seed"]) for r in read_results(out) if _planner(r) == planner}
+    done = results.done(Job.key_of)
     todo = [j for j in jobs if j.key not in done]
-    out.parent.mkdir(parents=True, exist_ok=True)
-    with out.open("a", encoding="utf-8") as fh:
-
-        def record(rec: dict[str, Any]) -> None:
-            fh.write(json.dumps(rec) + "\n")
-            fh.flush()
-            if progress is not None:
-                progress(rec)
-
-        if workers <= 1:
-            _init_worker(str(library_dir), llm, noise, planner)
-            for job in todo:
-                record(_run_job(job))
-        elif todo:
-            ctx = multiprocessing.get_context("spawn")
-            with ctx.Pool(workers, _init_worker, (str(library_dir), llm, noise, planner)) as pool:
-                for rec in pool.imap_unordered(_run_job, todo):
-                    record(rec)
-    return [
-        r
-        for r in read_results(out)
-        if (r["task"], r["method"], r["seed"]) in wanted and _planner(r) == planner
-    ]
-
-
-def _planner(record: dict[str, Any]) -> str:
-    return record.get("planner", "none")
+    for rec in run_jobs(todo, (str(library_dir), llm, noise, planner), workers, backend, ray_address):
+        results.append(rec)
+        if progress is not None:
+            progress(rec)
+    return [r for r in results.results() if Job.key_of(r) in wanted]
 
 
 def summarize(records: Iterable[dict[str, Any]]) -> list[dict[str, Any]]:
@@ -517,6 +548,7 @@ def cpu_count() -> int:
 
 
 __all__ = [
+    "BACKENDS",
     "DEFAULT_NOISE",
     "ORACLE_REVISION",
     "PLANNERS",
@@ -527,12 +559,14 @@ __all__ = [
     "default_library_dir",
     "eval_task_ids",
     "evaluate",
+    "execution_config",
     "jobs_for",
     "load_library",
     "make_source",
     "plan_run",
-    "read_results",
     "refused_task",
     "run_episode",
+    "run_job",
+    "run_jobs",
     "summarize",
 ]
