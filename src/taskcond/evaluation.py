@@ -19,6 +19,7 @@ from taskcond.examples import reference_condition
 from taskcond.generator import ConditionGenerator
 from taskcond.llm.base import LLMError
 from taskcond.primitives import PRIMITIVES, ParsedTask
+from taskcond.probe import ProbeResult
 
 EVAL_OBJECTS: dict[str, tuple[tuple[str, ...], ...]] = {
     "grasp": (("bowl",), ("coffee mug",), ("spatula",), ("toothpaste",), ("red cube",)),
@@ -88,6 +89,11 @@ class ConditionEvaluation:
     generation: dict[str, PrimitiveScore]
     generalization: dict[str, PrimitiveScore]
     outcomes: list[Outcome]
+    prompt_version: str = ""
+    samples: int = 1
+    probe: ProbeResult | None = None
+    """The model's zero-shot state probe (:mod:`taskcond.probe`), when measured: how much of the
+    primitives' object states it knows without examples, beside the generalization figure."""
 
     def median_seconds(self, mode: str) -> float:
         times = [o.seconds for o in self.outcomes if o.mode == mode and o.error is None]
@@ -102,10 +108,13 @@ class ConditionEvaluation:
 
         return {
             "model": self.model,
+            "prompt_version": self.prompt_version,
+            "samples": self.samples,
             "trials": self.trials,
             "generation": scores(self.generation),
             "generalization": scores(self.generalization),
             "median_seconds": {m: self.median_seconds(m) for m in ("generation", "generalization")},
+            "state_probe": self.probe.to_dict() if self.probe is not None else None,
         }
 
     def table(self) -> str:
@@ -146,6 +155,8 @@ def evaluate_conditions(
         generation={p: PrimitiveScore(p) for p in pids},
         generalization={p: PrimitiveScore(p) for p in pids},
         outcomes=[],
+        prompt_version=generator.prompt_version,
+        samples=generator.samples,
     )
     for mode in modes:
         for pid in pids:
