@@ -158,9 +158,9 @@ def evaluate_conditions(
         prompt_version=generator.prompt_version,
         samples=generator.samples,
     )
-    for mode in modes:
-        for pid in pids:
-            for trial in range(trials):
+    for mode in modes:  # trial by trial: the prompts of one trial share the most (one example order)
+        for trial in range(trials):
+            for pid in pids:
                 objects = EVAL_OBJECTS[pid][trial % len(EVAL_OBJECTS[pid])]
                 task = ParsedTask(PRIMITIVES[pid], objects)
                 exclude = (pid,) if mode == "generalization" else ()

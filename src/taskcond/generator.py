@@ -163,11 +163,15 @@ def code_turns(
     task: ParsedTask, exclude: Iterable[str] = (), order_seed: int | None = None
 ) -> list[tuple[str, str]]:
     """The examples of the code form as ``(signature, body)`` pairs (:mod:`taskcond.code_form`): every
-    primitive's letter example not in ``exclude``, in registry order or shuffled by ``order_seed``."""
-    excluded = set(exclude)
-    ids = [pid for pid in PRIMITIVES if pid not in excluded]
+    primitive's letter example not in ``exclude``, in registry order or in the order ``order_seed``
+    shuffles all of them into. Shuffling all, then leaving some out, gives the remaining examples a
+    uniformly random order as shuffling them would, and the prompts of one order, whichever primitive
+    they leave out, share the examples before the first one left out: a prefix llama.cpp reuses."""
+    ids = list(PRIMITIVES)
     if order_seed is not None:
         random.Random(order_seed).shuffle(ids)
+    excluded = set(exclude)
+    ids = [pid for pid in ids if pid not in excluded]
     turns = []
     for pid in ids:
         example_task = parse_task(example_conditions()[pid].task_name)
