@@ -6,18 +6,20 @@ replaced by letters (``move A into B``) in the prompts and mapped back in the an
 merged into one :class:`~taskcond.conditions.TaskCondition`.
 
 *Generation* shows the LLM an example of every primitive. *Generalization* leaves out the examples of
-the task's own primitive (``exclude``, the paper's Table II protocol) and uses the chain-of-thought prompt
-of Listing 4. In prompt version v5 (the default), generation shows the examples as the chat's earlier
-turns (the task name asked, its condition answered) with the question as the last turn, and in the
-chain-of-thought prompt (v4's) each example carries a one-line worked reasoning (few-shot chain of
-thought, Wei et al. 2022), so the model reasons about the new primitive in the same way before it answers.
-A reason speaks of its own example only and leaves with it.
+the task's own primitive (``exclude``, the paper's Table II protocol). In prompt versions v1–v5 it uses
+the two chain-of-thought chats of Listing 4; in v4 and v5 each example carries a one-line worked
+reasoning (few-shot chain of thought, Wei et al. 2022), so the model reasons about the new primitive in
+the same way before it answers; a reason speaks of its own example only and leaves with it. In v5 and v6,
+generation shows the examples as the chat's earlier turns (the task name asked, its condition answered)
+with the question as the last turn. In v6 (the default, beyond the paper), a left-out primitive is asked in
+one chat whose examples are Python functions (:mod:`taskcond.code_form`): the signature asked, the body of
+asserts answered; the body is read back into a condition and validated like any answer.
 
 Beyond the paper, the answer's form is guaranteed: a GBNF grammar constrains decoding where the backend
 supports it, and every answer passes a validator that checks the vocabulary, the task's objects and that
 no two conditions contradict each other, never the content, and asks again with the error shown, within
-a bound. Optional self-consistency draws ``samples`` answers per chat and keeps each condition a
-majority of them has.
+a bound. Optional self-consistency draws ``samples`` answers per chat (in the code form: greedy answers
+over as many example orders) and keeps each condition a majority of them has.
 """
 
 from __future__ import annotations
@@ -71,14 +73,14 @@ def prompt_versions() -> list[str]:
 
 def _prompt_file(name: str, version: str):
     """The file ``taskcond/prompts/<version>/<name>``, else the one of the version named in the version's
-    ``parent`` file (a version that changes some prompts and keeps the others); ``None`` when neither has
+    ``parent.txt`` file (a version that changes some prompts and keeps the others); ``None`` when neither has
     it."""
     root = resources.files("taskcond").joinpath("prompts")
     while True:
         path = root.joinpath(f"{version}/{name}")
         if path.is_file():
             return path
-        parent = root.joinpath(f"{version}/parent")
+        parent = root.joinpath(f"{version}/parent.txt")
         if not parent.is_file():
             return None
         version = parent.read_text(encoding="utf-8").strip()
