@@ -183,8 +183,9 @@ def test_grammar_names_only_the_tasks_letters():
 @pytest.mark.llm
 @pytest.mark.parametrize("pid", ["release", "tilt", "move_into"])
 def test_embedded_constrained_answers_are_always_valid(embedded_backend, pid):
-    """Constrained decoding: the real model's first answer parses even for an unseen primitive."""
-    gen = ConditionGenerator(embedded_backend, max_retries=0, grammar="always")
+    """Constrained decoding: the real model's first answer parses even for an unseen primitive (the two
+    chain-of-thought chats of v5)."""
+    gen = ConditionGenerator(embedded_backend, max_retries=0, grammar="always", prompt_version="v5")
     prim = PRIMITIVES[pid]
     task = parse_task(prim.task_name(*["bowl", "top drawer"][: prim.n_objects]))
     result = gen.generate(task, exclude=[pid])
@@ -195,8 +196,9 @@ def test_embedded_constrained_answers_are_always_valid(embedded_backend, pid):
 
 @pytest.mark.llm
 def test_embedded_free_answer_falls_back_to_the_grammar(embedded_backend):
-    """With the default fallback, every primitive gets a valid condition within one constrained retry."""
-    gen = ConditionGenerator(embedded_backend, max_retries=1)
+    """With the default fallback, every primitive gets a valid condition within one constrained retry (the
+    two chain-of-thought chats of v5; the code form of v6 in test_code_form.py)."""
+    gen = ConditionGenerator(embedded_backend, max_retries=1, prompt_version="v5")
     for pid, prim in PRIMITIVES.items():
         result = gen.generate(prim.task_name(*["cup", "lunch box"][: prim.n_objects]), exclude=[pid])
         assert result.attempts in (2, 3, 4)

@@ -41,7 +41,13 @@ LlmOption = Annotated[
     ),
 ]
 SamplesOption = Annotated[
-    int, typer.Option("--samples", min=1, help="Self-consistency: answers per chat, majority per condition.")
+    int,
+    typer.Option(
+        "--samples",
+        min=1,
+        help="Self-consistency, majority per condition: for a left-out primitive in the code form (v6), "
+        "greedy answers over this many example orders; otherwise answers sampled per chat.",
+    ),
 ]
 NoCacheOption = Annotated[
     bool, typer.Option("--no-cache", help="Do not read or write the on-disk response cache.")
@@ -51,10 +57,12 @@ PromptVersionOption = Annotated[
     str,
     typer.Option(
         "--prompt-version",
-        help="Prompt set: v5 (default: the examples of generation as earlier turns of the chat, and v4's "
-        "chain-of-thought prompt), v4 (v1 whose chain-of-thought prompt shows each example with a one-line "
-        "worked reasoning), v1 (the paper's Listings 2-4), v2 (v1 with the definitions of pre/post-"
-        "conditions and an analogy step in the chain-of-thought prompt), v3 (no chain-of-thought text).",
+        help="Prompt set: v6 (default: a left-out primitive's condition written as a Python function in "
+        "one chat; generation as v5), v5 (generation with the examples as earlier turns of the chat; the "
+        "paper's two chain-of-thought chats for a left-out primitive, as v4), v4 (v1 whose "
+        "chain-of-thought prompt shows each example with a one-line worked reasoning), v1 (the paper's "
+        "Listings 2-4), v2 (v1 with the definitions of pre/post-conditions and an analogy step in the "
+        "chain-of-thought prompt), v3 (no chain-of-thought text).",
     ),
 ]
 
@@ -214,8 +222,17 @@ def eval_conditions(
         typer.Option("--primitive", help=f"Only these primitives (repeatable): {', '.join(PRIMITIVES)}."),
     ] = None,
     prompt_version: PromptVersionOption = PROMPT_VERSION,
+    probe: Annotated[
+        bool,
+        typer.Option(
+            "--probe/--no-probe",
+            help="Also ask the model the zero-shot state probe (46 yes/no questions, cached) and print its "
+            "score beside the generalization figure.",
+        ),
+    ] = True,
 ) -> None:
-    """Generation (all examples) and generalization (leave-one-out) accuracy per primitive (Table II)."""
+    """Generation (all examples) and generalization (leave-one-out) accuracy per primitive (Table II), with
+    the model's zero-shot state probe."""
     from tqdm import tqdm
 
     from taskcond.evaluation import evaluate_conditions
@@ -231,17 +248,29 @@ def eval_conditions(
     result = evaluate_conditions(gen, trials=trials, primitives=pids, progress=lambda _o: bar.update())
     bar.close()
     config = RunConfig(kind="conditions", **llm_fields(llm, gen), code=code_version())
+    if probe:
+        from taskcond.probe import probe as state_probe
+
+        try:  # beside the generalization figure: does the model know the primitives' states at all?
+            result.probe = state_probe(gen.backend)
+        except LLMError as exc:
+            typer.echo(f"state probe not measured: {exc}", err=True)
     if as_json:
         made = {"config": config.to_dict(), "digest": config.digest}
         typer.echo(json.dumps(result.to_dict() | made, indent=2))
     else:
         typer.echo(result.table())
         typer.echo(
-            f"\nmodel {result.model}; median seconds per condition: "
-            f"generation {result.median_seconds('generation'):.2f}, "
+            f"\nmodel {result.model}; prompts {result.prompt_version}, samples {result.samples}; median "
+            f"seconds per condition: generation {result.median_seconds('generation'):.2f}, "
             f"generalization {result.median_seconds('generalization'):.2f}; configuration {config.digest} "
-            f"(prompts {config.prompt_version}, code {config.code})"
+            f"(code {config.code})"
         )
+        if result.probe is not None:
+            typer.echo(
+                f"{result.probe.summary()}: zero-shot yes/no questions on the primitives' object states "
+                "(benchmarks/probe_llm.py); near chance, the model cannot know a left-out primitive's states"
+            )
 
 
 MethodOption = Annotated[

@@ -1,10 +1,12 @@
 """Evaluation of condition generation and generalization (the paper's Table II protocol, §V-A).
 
 For every primitive and trial, one task with varied object names is generated twice: with every example
-shown (*generation*) and with the primitive's own examples left out (*generalization*, chain-of-thought
-prompt). A condition counts as correct only if every field equals the reference condition (the
-primitive's example instantiated for the task's objects), order-insensitive. Trials also vary the order
-of the examples in the prompts, so repeated trials are not repeated prompts.
+shown (*generation*) and with the primitive's own examples left out (*generalization*: the code form in
+prompt version v6, the chain-of-thought chats in v1–v5). A condition counts as correct only if every
+field equals the reference condition (the primitive's example instantiated for the task's objects),
+order-insensitive. Trials also vary the order of the examples in the prompts, so repeated trials are not
+repeated prompts. The model's zero-shot state probe (:mod:`taskcond.probe`) can go with the result, to
+read the generalization figure against.
 """
 
 from __future__ import annotations
@@ -19,6 +21,7 @@ from taskcond.examples import reference_condition
 from taskcond.generator import ConditionGenerator
 from taskcond.llm.base import LLMError
 from taskcond.primitives import PRIMITIVES, ParsedTask
+from taskcond.probe import ProbeResult
 
 EVAL_OBJECTS: dict[str, tuple[tuple[str, ...], ...]] = {
     "grasp": (("bowl",), ("coffee mug",), ("spatula",), ("toothpaste",), ("red cube",)),
@@ -88,6 +91,11 @@ class ConditionEvaluation:
     generation: dict[str, PrimitiveScore]
     generalization: dict[str, PrimitiveScore]
     outcomes: list[Outcome]
+    prompt_version: str = ""
+    samples: int = 1
+    probe: ProbeResult | None = None
+    """The model's zero-shot state probe (:mod:`taskcond.probe`), when measured: how much of the
+    primitives' object states it knows without examples, beside the generalization figure."""
 
     def median_seconds(self, mode: str) -> float:
         times = [o.seconds for o in self.outcomes if o.mode == mode and o.error is None]
@@ -102,10 +110,13 @@ class ConditionEvaluation:
 
         return {
             "model": self.model,
+            "prompt_version": self.prompt_version,
+            "samples": self.samples,
             "trials": self.trials,
             "generation": scores(self.generation),
             "generalization": scores(self.generalization),
             "median_seconds": {m: self.median_seconds(m) for m in ("generation", "generalization")},
+            "state_probe": self.probe.to_dict() if self.probe is not None else None,
         }
 
     def table(self) -> str:
@@ -146,10 +157,12 @@ def evaluate_conditions(
         generation={p: PrimitiveScore(p) for p in pids},
         generalization={p: PrimitiveScore(p) for p in pids},
         outcomes=[],
+        prompt_version=generator.prompt_version,
+        samples=generator.samples,
     )
-    for mode in modes:
-        for pid in pids:
-            for trial in range(trials):
+    for mode in modes:  # trial by trial: the prompts of one trial share the most (one example order)
+        for trial in range(trials):
+            for pid in pids:
                 outcome = score_trial(generator, pid, mode, trial)
                 score = getattr(result, mode)[pid]
                 score.trials += 1

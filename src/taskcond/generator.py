@@ -6,24 +6,27 @@ replaced by letters (``move A into B``) in the prompts and mapped back in the an
 merged into one :class:`~taskcond.conditions.TaskCondition`.
 
 *Generation* shows the LLM an example of every primitive. *Generalization* leaves out the examples of
-the task's own primitive (``exclude``, the paper's Table II protocol) and uses the chain-of-thought prompt
-of Listing 4. In prompt version v5 (the default), generation shows the examples as the chat's earlier
-turns (the task name asked, its condition answered) with the question as the last turn, and in the
-chain-of-thought prompt (v4's) each example carries a one-line worked reasoning (few-shot chain of
-thought, Wei et al. 2022), so the model reasons about the new primitive in the same way before it answers.
-A reason speaks of its own example only and leaves with it.
+the task's own primitive (``exclude``, the paper's Table II protocol). In prompt versions v1–v5 it uses
+the two chain-of-thought chats of Listing 4; in v4 and v5 each example carries a one-line worked
+reasoning (few-shot chain of thought, Wei et al. 2022), so the model reasons about the new primitive in
+the same way before it answers; a reason speaks of its own example only and leaves with it. In v5 and v6,
+generation shows the examples as the chat's earlier turns (the task name asked, its condition answered)
+with the question as the last turn. In v6 (the default, beyond the paper), a left-out primitive is asked in
+one chat whose examples are Python functions (:mod:`taskcond.code_form`): the signature asked, the body of
+asserts answered; the body is read back into a condition and validated like any answer.
 
 Beyond the paper, the answer's form is guaranteed: a GBNF grammar constrains decoding where the backend
 supports it, and every answer passes a validator that checks the vocabulary, the task's objects and that
 no two conditions contradict each other, never the content, and asks again with the error shown, within
-a bound. Optional self-consistency draws ``samples`` answers per chat and keeps each condition a
-majority of them has.
+a bound. Optional self-consistency draws ``samples`` answers per chat (in the code form: greedy answers
+over as many example orders) and keeps each condition a majority of them has.
 """
 
 from __future__ import annotations
 
 import random
 import time
+import zlib
 from collections import Counter
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
@@ -32,6 +35,7 @@ from importlib import resources
 from string import Template
 from typing import Literal
 
+from taskcond import code_form
 from taskcond.conditions import (
     GRIPPER,
     RELATIONS,
@@ -43,13 +47,15 @@ from taskcond.conditions import (
     contradictions,
     is_spatial,
 )
-from taskcond.examples import letter_example
+from taskcond.examples import example_conditions, letter_example
 from taskcond.llm.base import ChatBackend, ChatMessage, ChatRequest, LLMError, Sampling
 from taskcond.primitives import LETTERS, PRIMITIVES, ParsedTask, Primitive, get_primitive, parse_task
 
-Chat = Literal["spatial", "state"]
+Chat = Literal["spatial", "state", "code"]
 CHATS: tuple[Chat, ...] = ("spatial", "state")
-PROMPT_VERSION = "v5"
+"""The paper's two chats (§III-B); a prompt version with the code form asks a left-out primitive in one
+``"code"`` chat instead."""
+PROMPT_VERSION = "v6"
 ExampleOrder = Literal["auto", "registry", "similar", "recall"]
 GrammarUse = Literal["always", "fallback", "never"]
 REASONING = "Reasoning:"
@@ -65,13 +71,34 @@ def prompt_versions() -> list[str]:
     return sorted(entry.name for entry in root.iterdir() if entry.is_dir() and not entry.name.startswith("_"))
 
 
+def _prompt_file(name: str, version: str):
+    """The file ``taskcond/prompts/<version>/<name>``, else the one of the version named in the version's
+    ``parent.txt`` file (a version that changes some prompts and keeps the others); ``None`` when neither has
+    it."""
+    root = resources.files("taskcond").joinpath("prompts")
+    while True:
+        path = root.joinpath(f"{version}/{name}")
+        if path.is_file():
+            return path
+        parent = root.joinpath(f"{version}/parent.txt")
+        if not parent.is_file():
+            return None
+        version = parent.read_text(encoding="utf-8").strip()
+
+
 def load_prompt(name: str, version: str = PROMPT_VERSION) -> Template:
-    """A prompt template from ``taskcond/prompts/<version>/<name>.txt``."""
-    path = resources.files("taskcond").joinpath(f"prompts/{version}/{name}.txt")
-    try:
-        return Template(path.read_text(encoding="utf-8"))
-    except FileNotFoundError:
-        raise ValueError(f"no prompt {name!r} in prompt version {version!r}") from None
+    """A prompt template from ``taskcond/prompts/<version>/<name>.txt`` (or its parent version's)."""
+    path = _prompt_file(f"{name}.txt", version)
+    if path is None:
+        raise ValueError(f"no prompt {name!r} in prompt version {version!r}")
+    return Template(path.read_text(encoding="utf-8"))
+
+
+@cache
+def uses_code_form(version: str = PROMPT_VERSION) -> bool:
+    """Whether a prompt version asks a left-out primitive for its condition as a Python function (one chat,
+    :mod:`taskcond.code_form`) instead of the two chain-of-thought chats: it has a ``code.txt`` prompt."""
+    return _prompt_file("code.txt", version) is not None
 
 
 def similarity(a: Primitive, b: Primitive) -> tuple[int, int]:
@@ -90,8 +117,8 @@ def load_reasons(chat: Chat, version: str = PROMPT_VERSION) -> dict[str, str] | 
     ``taskcond/prompts/<version>/reasons_<chat>.txt`` (lines ``grasp A: ...``); ``None`` when the version
     shows bare examples. Each reason speaks of its own example only, so leaving a primitive's example
     out leaves its reason out too."""
-    path = resources.files("taskcond").joinpath(f"prompts/{version}/reasons_{chat}.txt")
-    if not path.is_file():
+    path = _prompt_file(f"reasons_{chat}.txt", version)
+    if path is None:
         return None
     reasons: dict[str, str] = {}
     for line in path.read_text(encoding="utf-8").splitlines():
@@ -132,6 +159,32 @@ def example_turns(
         reason = [f"{REASONING} {reasons[example.task_name]}"] if reasons else []
         turns.append((name_line, "\n".join([*reason, rest])))
     return turns
+
+
+def code_turns(
+    task: ParsedTask, exclude: Iterable[str] = (), order_seed: int | None = None
+) -> list[tuple[str, str]]:
+    """The examples of the code form as ``(signature, body)`` pairs (:mod:`taskcond.code_form`): every
+    primitive's letter example not in ``exclude``, in registry order or in the order ``order_seed``
+    shuffles all of them into. Shuffling all, then leaving some out, gives the remaining examples a
+    uniformly random order as shuffling them would, and the prompts of one order, whichever primitive
+    they leave out, share the examples before the first one left out: a prefix llama.cpp reuses."""
+    ids = list(PRIMITIVES)
+    if order_seed is not None:
+        random.Random(order_seed).shuffle(ids)
+    excluded = set(exclude)
+    ids = [pid for pid in ids if pid not in excluded]
+    turns = []
+    for pid in ids:
+        example_task = parse_task(example_conditions()[pid].task_name)
+        turns.append((code_form.signature(example_task), code_form.body(letter_example(pid), example_task)))
+    return turns
+
+
+def order_seeds(order_seed: int | None, n: int) -> list[int | None]:
+    """The example orders of ``n`` samples: ``order_seed`` itself first (one sample asks what no sampling
+    asks), then orders derived from it and the sample's number."""
+    return [order_seed, *(zlib.crc32(f"{order_seed}:{i}".encode()) for i in range(1, n))]
 
 
 def examples_block(
@@ -200,6 +253,33 @@ def answer_grammar(chat: Chat, task: ParsedTask, max_lines: int = 6, reasoning: 
     return "\n".join(rules) + "\n"
 
 
+def code_grammar(task: ParsedTask, max_lines: int = 6) -> str:
+    """GBNF grammar of a valid function body (:mod:`taskcond.code_form`) for ``task``: asserts of the
+    vocabulary on the gripper and the task's objects, the robot call, the returned contacts."""
+    params = code_form.parameters(task)
+    objects = [GRIPPER, *params]
+    methods = [r.replace(" ", "_") for r in RELATIONS]
+    call = code_form.robot_call(task)
+    return (
+        "\n".join(
+            [
+                f'root ::= "    # before\\n" line{{0,{max_lines}}} "    {call}\\n    # after\\n" '
+                f'line{{0,{max_lines}}} "    return [" contacts "]{code_form.CONTACTS_COMMENT}\\n"',
+                'line ::= "    assert " pred "\\n"',
+                f'pred ::= "{GRIPPER}.holding(" item ")" | param ".is_open()" | param ".is_closed()" '
+                '| any "." rel "(" any ")"',
+                f"item ::= {_alternatives(['None', *params])}",
+                f"param ::= {_alternatives(params)}",
+                f"any ::= {_alternatives(objects)}",
+                f"rel ::= {_alternatives(methods)}",
+                'contacts ::= "" | pair (", " pair){0,5}',
+                'pair ::= "(" any ", " any ")"',
+            ]
+        )
+        + "\n"
+    )
+
+
 def _after_reasoning(lines: list[str]) -> list[str]:
     """The lines of an answer from its ``Relevant objects:`` line on (what precedes it is the model's
     reasoning); without that line, every line but the ``Reasoning:`` ones."""
@@ -212,20 +292,27 @@ def _after_reasoning(lines: list[str]) -> list[str]:
 def parse_answer(text: str, chat: Chat, task: ParsedTask, reasoning: bool = False) -> TaskCondition:
     """Validate one chat's answer and map its letters back to the task's objects.
 
-    Checks form only: the Listing 1 layout, the vocabulary, the chat's half of it, that every object is
-    one of the task's letters or the gripper, and that no two conditions of one list contradict each other
-    by the vocabulary's meaning (:func:`~taskcond.conditions.contradictions`; never what a primitive
-    needs). With ``reasoning`` (prompts whose examples reason first), whatever precedes the ``Relevant
-    objects:`` line is the model's reasoning and is not parsed. Raises :class:`ConditionError` saying
-    what is wrong.
+    Checks form only: the Listing 1 layout (a function body in the ``"code"`` chat,
+    :func:`taskcond.code_form.parse_body`), the vocabulary, the chat's half of it, that every object is one
+    of the task's letters or the gripper, and that no two conditions of one list contradict each other by
+    the vocabulary's meaning (:func:`~taskcond.conditions.contradictions`; never what a primitive needs).
+    With ``reasoning`` (prompts whose examples reason first), whatever precedes the ``Relevant objects:``
+    line is the model's reasoning and is not parsed. Raises :class:`ConditionError` saying what is wrong.
     """
+    if chat == "code":
+        return validate(code_form.parse_body(text, task), chat, task)
     body = text.strip().strip("`").strip()
     if not body:
         raise ConditionError("the answer is empty")
     lines = [ln for ln in body.splitlines() if not ln.strip().lower().startswith(("q:", "a:"))]
     if reasoning:
         lines = _after_reasoning(lines)
-    cond = TaskCondition.from_text("\n".join(lines), task_name=task.letter_name)
+    return validate(TaskCondition.from_text("\n".join(lines), task_name=task.letter_name), chat, task)
+
+
+def validate(cond: TaskCondition, chat: Chat, task: ParsedTask) -> TaskCondition:
+    """The checks of :func:`parse_answer` on a condition read from an answer (objects as the task's
+    letters, any case); returns it with the task's objects. The ``"code"`` chat gives both halves."""
     to_object = {letter.lower(): obj for obj, letter in task.letters().items()}
     allowed = {*to_object, GRIPPER}
     names = set(cond.relevant_objects) | cond.mentioned_objects()
@@ -240,14 +327,19 @@ def parse_answer(text: str, chat: Chat, task: ParsedTask, reasoning: bool = Fals
         raise ConditionError(
             f"conditions name objects missing from 'Relevant objects:': {', '.join(unlisted)}"
         )
-    wrong = [
-        str(p) for p in (*cond.pre_conditions, *cond.post_conditions) if is_spatial(p) != (chat == "spatial")
-    ]
-    if wrong:
-        kind = (
-            "spatial relations (above, below, inside, in front of)" if chat == "spatial" else "object states"
-        )
-        raise ConditionError(f"{', '.join(wrong)} not allowed here: give only {kind}")
+    if chat != "code":
+        wrong = [
+            str(p)
+            for p in (*cond.pre_conditions, *cond.post_conditions)
+            if is_spatial(p) != (chat == "spatial")
+        ]
+        if wrong:
+            kind = (
+                "spatial relations (above, below, inside, in front of)"
+                if chat == "spatial"
+                else "object states"
+            )
+            raise ConditionError(f"{', '.join(wrong)} not allowed here: give only {kind}")
     if chat == "state" and cond.collisions:
         raise ConditionError("give no collisions here, only object states")
     for pred in (*cond.pre_conditions, *cond.post_conditions):
@@ -261,7 +353,10 @@ def parse_answer(text: str, chat: Chat, task: ParsedTask, reasoning: bool = Fals
     for title, preds in (("pre-conditions", cond.pre_conditions), ("post-conditions", cond.post_conditions)):
         clashes = contradictions(preds)
         if clashes:
-            a, b = (" ".join(w.upper() if len(w) == 1 else w for w in str(x).split()) for x in clashes[0])
+            if chat == "code":
+                a, b = (code_form.assert_line(x) for x in clashes[0])
+            else:
+                a, b = (" ".join(w.upper() if len(w) == 1 else w for w in str(x).split()) for x in clashes[0])
             raise ConditionError(f"the {title} '{a}' and '{b}' contradict each other: keep at most one")
     for col in cond.collisions:
         if col.a == col.b:
@@ -269,9 +364,12 @@ def parse_answer(text: str, chat: Chat, task: ParsedTask, reasoning: bool = Fals
     return cond.rename(to_object, task_name=task.name)
 
 
-def _majority(conditions: Sequence[TaskCondition], task_name: str) -> TaskCondition:
-    """Self-consistency: keep every object, condition and collision more than half the samples contain."""
-    need = len(conditions) / 2
+def _majority(
+    conditions: Sequence[TaskCondition], task_name: str, voters: int | None = None
+) -> TaskCondition:
+    """Self-consistency: keep every object, condition and collision more than half the samples contain;
+    ``voters`` samples in all (default: ``conditions``), those not among ``conditions`` stating nothing."""
+    need = (voters or len(conditions)) / 2
 
     def vote(field_values: list[tuple]) -> tuple:
         counts: Counter = Counter()
@@ -377,6 +475,11 @@ class ConditionGenerator:
         layout): the prefix a backend may keep (:attr:`~taskcond.llm.base.ChatRequest.shared_messages`).
         """
         excluded = set(exclude)
+        if chat == "code":
+            turns = [ChatMessage("system", load_prompt("code", self.prompt_version).template.strip())]
+            for name, answer in code_turns(task, excluded, order_seed):
+                turns += [ChatMessage("user", name), ChatMessage("assistant", answer)]
+            return (*turns, ChatMessage("user", code_form.signature(task))), 0
         cot = task.primitive.id in excluded
         template = load_prompt(f"{chat}_cot" if cot else chat, self.prompt_version)
         one_message = "$examples" in template.template
@@ -409,8 +512,11 @@ class ConditionGenerator:
         self, chat: Chat, task: ParsedTask, seed: int, temperature: float, transcript: ChatTranscript
     ) -> TaskCondition:
         messages = list(transcript.messages)
-        reasoning = any(REASONING in m.content for m in messages)
-        grammar = answer_grammar(chat, task, reasoning=reasoning) if self.grammar != "never" else None
+        code = chat == "code"
+        reasoning = not code and any(REASONING in m.content for m in messages)
+        grammar = None
+        if self.grammar != "never":
+            grammar = code_grammar(task) if code else answer_grammar(chat, task, reasoning=reasoning)
         for attempt in range(self.max_retries + 1):
             constrained = self.grammar == "always" or (self.grammar == "fallback" and attempt > 0)
             resample = attempt >= 2  # a greedy second retry mostly repeats the first one
@@ -419,7 +525,7 @@ class ConditionGenerator:
                 stop=STOP,
                 sampling=Sampling(
                     temperature=max(temperature, self.temperature) if resample else temperature,
-                    max_tokens=160,
+                    max_tokens=240 if code else 160,
                     seed=seed + attempt,
                 ),
                 grammar=grammar if constrained else None,
@@ -432,8 +538,11 @@ class ConditionGenerator:
                 return parse_answer(response.text, chat, task, reasoning)
             except ConditionError as exc:
                 transcript.errors.append(str(exc))
-                retry = load_prompt("retry", self.prompt_version).substitute(
-                    error=exc, task=task.letter_name, objects=", ".join([*task.letters().values(), GRIPPER])
+                retry = load_prompt("code_retry" if code else "retry", self.prompt_version).substitute(
+                    error=exc,
+                    task=task.letter_name,
+                    objects=", ".join([*task.letters().values(), GRIPPER]),
+                    function=code_form.signature(task).split("\n", 1)[0].removeprefix("def ").rstrip(":"),
                 )
                 messages += [ChatMessage("assistant", response.text), ChatMessage("user", retry)]
         lines = transcript.answers[-1].splitlines()
@@ -445,6 +554,29 @@ class ConditionGenerator:
             f"attempts; last answer {last!r}: {transcript.errors[-1]}",
             backend=self.backend.name,
         )
+
+    def _code_votes(
+        self, task: ParsedTask, excluded: tuple[str, ...], order_seed: int | None, seed: int
+    ) -> tuple[TaskCondition, list[ChatTranscript]]:
+        """The code form's answer for a left-out primitive: one greedy answer per example order of
+        :func:`order_seeds` (:attr:`samples` of them), and with several, every condition more than half
+        of them state (self-consistency over example orders; an order without a valid answer states
+        nothing). Raises the last :class:`LLMError` when no order gave a valid answer."""
+        transcripts, answers = [], []
+        error: LLMError | None = None
+        for order in order_seeds(order_seed, self.samples):
+            transcript = ChatTranscript("code", *self.layout("code", task, excluded, order))
+            transcripts.append(transcript)
+            try:
+                answers.append(self._chat("code", task, seed, 0.0, transcript))
+            except LLMError as exc:
+                error = exc
+        if not answers:
+            assert error is not None
+            raise error
+        if self.samples == 1:
+            return answers[0], transcripts
+        return _majority(answers, task.name, voters=self.samples), transcripts
 
     def generate(
         self,
@@ -469,6 +601,12 @@ class ConditionGenerator:
         start = time.perf_counter()
         task = task_name if isinstance(task_name, ParsedTask) else parse_task(task_name)
         excluded = tuple(get_primitive(pid).id for pid in exclude)
+        mode: Literal["generation", "generalization"] = (
+            "generalization" if task.primitive.id in excluded else "generation"
+        )
+        if mode == "generalization" and uses_code_form(self.prompt_version):
+            condition, transcripts = self._code_votes(task, excluded, order_seed, seed)
+            return GenerationResult(condition, mode, excluded, transcripts, time.perf_counter() - start)
         parts: dict[Chat, TaskCondition] = {}
         transcripts = []
         for chat in CHATS:
@@ -485,7 +623,7 @@ class ConditionGenerator:
         condition = TaskCondition.merge(parts["spatial"], parts["state"])
         return GenerationResult(
             condition=condition,
-            mode="generalization" if task.primitive.id in excluded else "generation",
+            mode=mode,
             excluded=excluded,
             transcripts=transcripts,
             seconds=time.perf_counter() - start,
@@ -497,11 +635,16 @@ __all__ = [
     "ConditionGenerator",
     "GenerationResult",
     "answer_grammar",
+    "code_grammar",
+    "code_turns",
     "example_turns",
     "examples_block",
     "load_prompt",
     "load_reasons",
+    "order_seeds",
     "parse_answer",
     "prompt_versions",
     "similarity",
+    "uses_code_form",
+    "validate",
 ]
