@@ -25,7 +25,7 @@ import numpy as np
 from taskcond.execution.executor import METHODS, ConditionSource, Event, ExecutionConfig, Executor, Method
 from taskcond.execution.kitchen import FreeTask, KitchenWorld, learn_library, primitive_task_ids
 from taskcond.execution.skills import LIBRARY_FORMAT, SkillError, SkillLibrary
-from taskcond.execution.sources import EnvConditions, LLMConditions
+from taskcond.execution.sources import EnvConditions, GroundedConditions, LLMConditions
 from taskcond.llm.models import cache_dir
 from taskcond.primitives import TaskNameError, parse_task
 from taskcond.sim.recording import VideoRecorder
@@ -86,7 +86,9 @@ class RunPlan:
 
 def plan_run(spec: str, decomposer: Callable[[str], list[str]] | None = None) -> RunPlan:
     """Resolve ``spec``: a suite id (``LHT1``, ``grasp-bottle``), a primitive task name of the suite
-    (``"grasp bottle"``), else a free instruction that ``decomposer`` turns into primitive task names.
+    (``"grasp bottle"``), another primitive task name (a declared primitive, or objects no suite task has:
+    one step in the default scene), else a free instruction that ``decomposer`` turns into primitive task
+    names.
 
     Raises:
         ValueError: a free instruction without a decomposer.
@@ -105,6 +107,8 @@ def plan_run(spec: str, decomposer: Callable[[str], list[str]] | None = None) ->
     for info in list_tasks():
         if info.kind == "primitive" and info.task_name == name:
             return RunPlan(spec, info.id, (info.task_name,))
+    if name is not None:  # a primitive task the suite does not have (a declared primitive, other objects)
+        return RunPlan(spec, None, (name,))
     if decomposer is None:
         raise ValueError(f"{spec!r} is neither a suite task id nor a primitive task of the suite")
     return RunPlan(spec, None, tuple(decomposer(spec)), decomposed=True)
@@ -117,9 +121,10 @@ class EpisodeResult:
 
     Attributes:
         task: suite id, or the instruction.
-        method: ``none``, ``env`` or ``llm``.
+        method: ``none``, ``env``, ``llm`` or ``llm+demo``.
         seed: the reset seed (also seeds the perception noise).
-        success: the ground-truth check; None for a free instruction.
+        success: the ground-truth check; for a primitive task outside the suite, whether its
+            post-conditions were met; None for a free instruction or without conditions.
         failure: short reason class when not successful (the executor's failure kind, or
             ``not_succeeded`` when the run completed but the check failed).
         reason: the one-line reason.
@@ -179,7 +184,12 @@ def run_episode(
         world = KitchenWorld(env, noise_sigma=noise, seed=seed, recorder=recorder)
         executor = Executor(world, library, method, source, config, on_event)
         result = executor.run(plan.steps)
-        success = None if plan.task_id is None else bool(env.task.success(env))
+        if plan.task_id is not None:
+            success: bool | None = bool(env.task.success(env))
+        elif plan.decomposed or method == "none":
+            success = None
+        else:  # one primitive task outside the suite: judged by its own post-conditions
+            success = result.completed and _post_conditions_met(result.events)
         sim_seconds = world.time
         env_seconds = world.env_seconds
     finally:
@@ -207,11 +217,18 @@ def run_episode(
     )
 
 
+def _post_conditions_met(events: list[Event]) -> bool:
+    """Whether the last top-level primitive ended with its post-conditions met (or skipped as done)."""
+    ends = [e.kind for e in events if e.depth == 0 and e.kind in ("post", "skip", "post_missing")]
+    return bool(ends) and ends[-1] in ("post", "skip")
+
+
 def make_source(
     method: Method, library: SkillLibrary, llm: str | None = None, cache: bool = True
 ) -> ConditionSource | None:
-    """The condition source of ``method``: None (DMP only), FromEnv, or the LLM of ``llm`` (the
-    ``--llm`` spec; default: $TASKCOND_LLM, the config file, else embedded)."""
+    """The condition source of ``method``: None (DMP only), FromEnv, the LLM of ``llm`` (the ``--llm``
+    spec; default: $TASKCOND_LLM, the config file, else embedded), or that LLM grounded in the library's
+    demonstrations (``llm+demo``)."""
     if method not in METHODS:
         raise ValueError(f"unknown method {method!r}; valid: {', '.join(METHODS)}")
     if method == "none":
@@ -224,7 +241,10 @@ def make_source(
     config = LLMConfig.load(llm)
     if not cache:
         config = replace(config, cache=False)
-    return LLMConditions(ConditionGenerator(make_backend(config)))
+    generator = ConditionGenerator(make_backend(config))
+    if method == "llm+demo":
+        return GroundedConditions(generator, library)
+    return LLMConditions(generator)
 
 
 # ------------------------------------------------------------------------------------------ evaluation
