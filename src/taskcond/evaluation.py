@@ -12,11 +12,13 @@ from __future__ import annotations
 import time
 from collections import Counter
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import asdict, dataclass, field
 from statistics import median
 
+from taskcond.conditions import TaskCondition, is_spatial
 from taskcond.examples import reference_condition
 from taskcond.generator import ConditionGenerator
+from taskcond.grounding import DemoEvidence, Grounded, ground
 from taskcond.llm.base import LLMError
 from taskcond.primitives import PRIMITIVES, ParsedTask
 
@@ -57,7 +59,13 @@ names included. Trial ``i`` uses entry ``i % 5``."""
 @dataclass
 class Outcome:
     """One generated condition scored against its reference; ``seconds`` of wall time spent on it, also
-    when no valid answer came (``error``)."""
+    when no valid answer came (``error``).
+
+    For a generalization answer grounded in the suite's demonstration of its primitive: ``grounded``
+    whether the grounded condition matches the reference, ``repairs`` what grounding changed,
+    ``extra_relations`` the grounded condition's spatial relations the reference lacks, and
+    ``incidental`` those of them grounding added (the paper's FromEnv relations it must not bring back).
+    """
 
     primitive: str
     mode: str
@@ -65,6 +73,12 @@ class Outcome:
     correct: bool
     seconds: float
     error: str | None = None
+    answer: str | None = None
+    grounded: bool | None = None
+    grounded_answer: str | None = None
+    repairs: list[str] = field(default_factory=list)
+    extra_relations: list[str] = field(default_factory=list)
+    incidental: list[str] = field(default_factory=list)
 
 
 @dataclass
@@ -88,6 +102,8 @@ class ConditionEvaluation:
     generation: dict[str, PrimitiveScore]
     generalization: dict[str, PrimitiveScore]
     outcomes: list[Outcome]
+    grounded: dict[str, PrimitiveScore] = field(default_factory=dict)
+    """Generalization answers grounded in the demonstration of their primitive (empty if not measured)."""
 
     def median_seconds(self, mode: str) -> float:
         times = [o.seconds for o in self.outcomes if o.mode == mode and o.error is None]
@@ -100,13 +116,19 @@ class ConditionEvaluation:
                 for p, s in d.items()
             }
 
-        return {
+        out = {
             "model": self.model,
             "trials": self.trials,
             "generation": scores(self.generation),
             "generalization": scores(self.generalization),
             "median_seconds": {m: self.median_seconds(m) for m in ("generation", "generalization")},
         }
+        if self.grounded:
+            out["generalization_grounded"] = scores(self.grounded)
+            out["extra_relations"] = sum(len(o.extra_relations) for o in self.outcomes)
+            out["incidental_relations"] = sum(len(o.incidental) for o in self.outcomes)
+        out["outcomes"] = [asdict(o) for o in self.outcomes]
+        return out
 
     def table(self) -> str:
         """A markdown table laid out like the paper's Table II."""
@@ -114,16 +136,20 @@ class ConditionEvaluation:
         def cell(correct: int, trials: int) -> str:
             return f"{correct / trials:.0%} ({correct}/{trials})" if trials else "not measured"
 
-        rows = ["| PT Name | Generation (LLM) | Generalization (LLM) |", "|---|---|---|"]
+        columns = [self.generation, self.generalization]
+        head = "| PT Name | Generation (LLM) | Generalization (LLM) |"
+        if self.grounded:
+            columns.append(self.grounded)
+            head += " Generalization, grounded (LLM + demo) |"
+        rows = [head, "|---" * (len(columns) + 1) + "|"]
         for pid, prim in PRIMITIVES.items():
             if pid in self.generation:
-                g, z = self.generation[pid], self.generalization[pid]
-                rows.append(f"| {prim.title} | {cell(g.correct, g.trials)} | {cell(z.correct, z.trials)} |")
+                cells = [cell(d[pid].correct, d[pid].trials) for d in columns]
+                rows.append(f"| {prim.title} | {' | '.join(cells)} |")
         totals = [
-            cell(sum(s.correct for s in d.values()), sum(s.trials for s in d.values()))
-            for d in (self.generation, self.generalization)
+            cell(sum(s.correct for s in d.values()), sum(s.trials for s in d.values())) for d in columns
         ]
-        rows.append(f"| **all** | {totals[0]} | {totals[1]} |")
+        rows.append(f"| **all** | {' | '.join(totals)} |")
         return "\n".join(rows)
 
 
@@ -133,19 +159,25 @@ def evaluate_conditions(
     primitives: Sequence[str] | None = None,
     modes: Sequence[str] = ("generation", "generalization"),
     progress: Callable[[Outcome], None] | None = None,
+    evidence: Callable[[ParsedTask], DemoEvidence] | None = None,
 ) -> ConditionEvaluation:
     """Run the Table II protocol; ``progress`` is called after each generated condition.
+
+    With ``evidence`` (what the suite's demonstration of a task's primitive shows, renamed to the task's
+    objects), every generalization answer is also grounded in it (:func:`taskcond.grounding.ground`) and
+    scored against the same reference: the "generalization, grounded" column.
 
     An LLM failure (no valid answer within the retry bound, endpoint errors) counts as an incorrect
     condition with its reason; it never aborts the evaluation.
     """
-    pids = list(primitives or PRIMITIVES)
+    pids = list(primitives or (p for p in PRIMITIVES if not PRIMITIVES[p].declared))
     result = ConditionEvaluation(
         model=f"{generator.backend.name}:{generator.backend.model}",
         trials=trials,
         generation={p: PrimitiveScore(p) for p in pids},
         generalization={p: PrimitiveScore(p) for p in pids},
         outcomes=[],
+        grounded={p: PrimitiveScore(p) for p in pids} if evidence is not None else {},
     )
     for mode in modes:
         for pid in pids:
@@ -162,13 +194,42 @@ def evaluate_conditions(
                     outcome = Outcome(pid, mode, task.name, False, time.perf_counter() - start, str(exc))
                     score.failures["no valid answer"] += 1
                 else:
-                    correct = gen.condition.matches(reference_condition(task))
-                    outcome = Outcome(pid, mode, task.name, correct, gen.seconds)
+                    reference = reference_condition(task)
+                    correct = gen.condition.matches(reference)
+                    outcome = Outcome(
+                        pid, mode, task.name, correct, gen.seconds, answer=gen.condition.to_text()
+                    )
                     if correct:
                         score.correct += 1
                     else:
                         score.failures["wrong condition"] += 1
+                    if mode == "generalization" and evidence is not None:
+                        _score_grounded(outcome, ground(gen.condition, evidence(task)), reference)
+                if mode == "generalization" and evidence is not None:
+                    result.grounded[pid].trials += 1
+                    if outcome.grounded:
+                        result.grounded[pid].correct += 1
+                    else:
+                        result.grounded[pid].failures[
+                            "no valid answer" if outcome.error else "wrong condition"
+                        ] += 1
                 result.outcomes.append(outcome)
                 if progress is not None:
                     progress(outcome)
     return result
+
+
+def _score_grounded(outcome: Outcome, grounded: Grounded, reference: TaskCondition) -> None:
+    """Fill the grounded fields of ``outcome``: match, repairs, and relations beyond the reference."""
+    cond = grounded.condition
+    original = {*grounded.original.pre_conditions, *grounded.original.post_conditions}
+    extra = [
+        p
+        for p in (*cond.pre_conditions, *cond.post_conditions)
+        if is_spatial(p) and p not in {*reference.pre_conditions, *reference.post_conditions}
+    ]
+    outcome.grounded = cond.matches(reference)
+    outcome.grounded_answer = cond.to_text()
+    outcome.repairs = [str(r) for r in grounded.repairs]
+    outcome.extra_relations = [str(p) for p in extra]
+    outcome.incidental = [str(p) for p in extra if p not in original]

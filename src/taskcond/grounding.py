@@ -49,6 +49,7 @@ from taskcond.conditions import (
     rename_predicate,
 )
 
+
 @dataclass(frozen=True)
 class DemoEvidence:
     """What a demonstration shows (§III-A.2): the predicates that held at its start and at its end and the
@@ -225,9 +226,7 @@ class _Grounding:
         for obj in pred.objects:
             if obj not in self.relevant:
                 self.relevant.append(obj)
-                self.repairs.append(
-                    Repair("added", "relevant objects", None, obj, f"'{pred}' names it")
-                )
+                self.repairs.append(Repair("added", "relevant objects", None, obj, f"'{pred}' names it"))
 
     # ------------------------------------------------------------------------------------------ rules
     def contradicted(self) -> None:
@@ -247,7 +246,9 @@ class _Grounding:
                     else:
                         self._replace(where, pred, actual, f"the demonstration's {when} shows '{actual}'")
                     continue
-                rival = [q for q in moment if contradictions([pred, q]) and set(q.objects) == set(pred.objects)]
+                rival = [
+                    q for q in moment if contradictions([pred, q]) and set(q.objects) == set(pred.objects)
+                ]
                 other = self.other(where)
                 if rival:
                     self._replace(where, pred, rival[0], f"the demonstration's {when} shows '{rival[0]}'")

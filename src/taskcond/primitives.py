@@ -320,7 +320,12 @@ def register_primitive(
             return old
         kind = "a built-in primitive" if not old.declared else "declared differently already"
         raise TaskNameError(f"{where} is {kind}; choose another id")
-    clash = [(p, pat) for p in PRIMITIVES.values() for pat in (p.pattern, *p.aliases) if pat in (canon, *alias_list)]
+    clash = [
+        (p, pat)
+        for p in PRIMITIVES.values()
+        for pat in (p.pattern, *p.aliases)
+        if pat in (canon, *alias_list)
+    ]
     if clash:
         raise TaskNameError(f"{where}: {clash[0][1]!r} is already a pattern of {clash[0][0].id!r}")
     PRIMITIVES[id] = prim
@@ -358,7 +363,9 @@ def load_primitives(path: str | Path) -> list[Primitive]:
             raise TaskNameError(f"{path}: primitive {k} needs at least 'id' and 'pattern'")
         unknown = sorted(set(entry) - fields)
         if unknown:
-            raise TaskNameError(f"{path}: primitive {k} has unknown field(s) {unknown}; valid: {sorted(fields)}")
+            raise TaskNameError(
+                f"{path}: primitive {k} has unknown field(s) {unknown}; valid: {sorted(fields)}"
+            )
         try:
             out.append(register_primitive(**entry))
         except TaskNameError as exc:
@@ -398,10 +405,10 @@ def task_for_condition(pred: Predicate, grasped: str | None = None) -> str | Non
 __all__ = [
     "LETTERS",
     "PRIMITIVES",
+    "PRIMITIVES_ENV",
     "ParsedTask",
     "Primitive",
     "TaskNameError",
-    "PRIMITIVES_ENV",
     "get_primitive",
     "load_primitives",
     "parse_task",

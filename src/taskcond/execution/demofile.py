@@ -73,7 +73,7 @@ class RecordedTrajectory:
     def actions(self, dt: float) -> np.ndarray:
         """Environment actions (m, 8k) at the control period ``dt``: per arm position, quaternion and the
         gripper command, resampled from :attr:`times`."""
-        n = max(2, int(round(self.times[-1] / dt)) + 1)
+        n = max(2, round(self.times[-1] / dt) + 1)
         t = np.minimum(np.arange(n) * dt, self.times[-1])
         held = np.searchsorted(self.times, t, side="right") - 1
         columns = []
@@ -134,7 +134,7 @@ def load_trajectory(path: str | Path) -> RecordedTrajectory:
         raise DemoFileError(f"cannot read demonstration {path}: {' '.join(str(exc).split())}") from None
     if not isinstance(data, dict) or data.get("format") != FORMAT:
         found = data.get("format") if isinstance(data, dict) else None
-        raise DemoFileError(f"{path}: format {found!r}; a demonstration file has \"format\": \"{FORMAT}\"")
+        raise DemoFileError(f'{path}: format {found!r}; a demonstration file has "format": "{FORMAT}"')
     try:
         task = parse_task(str(data.get("task_name", "")))
     except TaskNameError as exc:
@@ -162,7 +162,7 @@ def load_trajectory(path: str | Path) -> RecordedTrajectory:
         times = np.arange(n) * float(dt)
     scene = data.get("scene")
     seed = data.get("seed", 0)
-    if scene is not None and not isinstance(scene, str) or not isinstance(seed, int):
+    if (scene is not None and not isinstance(scene, str)) or not isinstance(seed, int):
         raise DemoFileError(f"{path}: 'scene' must be a suite task id or null and 'seed' an integer")
     return RecordedTrajectory(task.name, scene, seed, times, positions, orientations, gripper)
 

@@ -305,7 +305,9 @@ def record_trajectory(task_id: str, seed: int = 0) -> tuple[RecordedTrajectory, 
     demonstration file's content (``taskcond record``), with whether the oracle succeeded."""
     task = get_task(task_id)
     if not isinstance(task, PrimitiveTask):
-        raise ValueError(f"{task_id!r} is not a primitive task; record one of: {', '.join(primitive_task_ids())}")
+        raise ValueError(
+            f"{task_id!r} is not a primitive task; record one of: {', '.join(primitive_task_ids())}"
+        )
     env = make(task_id)
     try:
         env.reset(seed=seed)
@@ -344,10 +346,7 @@ def replay_demonstration(recorded: RecordedTrajectory) -> Demonstration:
     Raises:
         ValueError: an unknown scene, or a task whose objects the scene does not have.
     """
-    if recorded.scene is None:
-        env = KitchenEnv(FreeTask(recorded.task_name))
-    else:
-        env = make(recorded.scene)
+    env = KitchenEnv(FreeTask(recorded.task_name)) if recorded.scene is None else make(recorded.scene)
     try:
         env.reset(seed=recorded.seed)
         world = KitchenWorld(env)
@@ -408,8 +407,8 @@ __all__ = [
     "CONTEXTS",
     "FreeTask",
     "KitchenWorld",
-    "learn_library",
     "demonstration_id",
+    "learn_library",
     "primitive_task_ids",
     "record_demonstrations",
     "record_trajectory",

@@ -40,8 +40,8 @@ import numpy as np
 from scipy.spatial.transform import Rotation, Slerp
 
 from taskcond.conditions import TaskCondition
-from taskcond.grounding import DemoEvidence
 from taskcond.dmp import DMPParameters, learn_dmp, load_parameters, save_parameters
+from taskcond.grounding import DemoEvidence
 from taskcond.primitives import parse_task
 
 LIBRARY_FORMAT = 3

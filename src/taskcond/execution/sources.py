@@ -1,5 +1,6 @@
-"""Where task conditions come from: the environment during the demonstrations (the paper's FromEnv) or
-the LLM (§III-B), or the LLM checked against the demonstration (:mod:`taskcond.grounding`), behind the :class:`~taskcond.execution.executor.ConditionSource` interface.
+"""Where task conditions come from: the environment during the demonstrations (the paper's FromEnv), the
+LLM (§III-B), or the LLM checked against the demonstration (:mod:`taskcond.grounding`), behind the
+:class:`~taskcond.execution.executor.ConditionSource` interface.
 """
 
 from __future__ import annotations
@@ -121,12 +122,14 @@ def demonstration_evidence(library: SkillLibrary, task_name: str) -> DemoEvidenc
 
 
 class GroundedConditions:
-    """LLM conditions grounded in the demonstration of the task's primitive (:func:`taskcond.grounding.ground`,
-    beyond the paper); the repairs of each task are kept in :attr:`repairs` for the trace."""
+    """LLM conditions grounded in the demonstration of the task's primitive (beyond the paper,
+    :func:`taskcond.grounding.ground`); each task's repairs are kept in :attr:`repairs` for the trace."""
 
     name = "llm+demo"
 
-    def __init__(self, generator: ConditionGenerator, library: SkillLibrary, exclude: Iterable[str] = ()) -> None:
+    def __init__(
+        self, generator: ConditionGenerator, library: SkillLibrary, exclude: Iterable[str] = ()
+    ) -> None:
         self.generator = generator
         self.library = library
         self.exclude = tuple(exclude)
