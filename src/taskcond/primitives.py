@@ -334,6 +334,16 @@ def register_primitive(
     return prim
 
 
+def unregister_primitive(id: str) -> None:
+    """Forget a declared primitive (the paper's ten cannot be removed)."""
+    prim = get_primitive(id)
+    if not prim.declared:
+        raise TaskNameError(f"{id!r} is a built-in primitive; only declared ones can be removed")
+    del PRIMITIVES[id]
+    global _PATTERNS
+    _PATTERNS = _patterns()
+
+
 def load_primitives(path: str | Path) -> list[Primitive]:
     """Declare the primitives of a TOML or JSON file (see :func:`register_primitive` for the fields)::
 
@@ -414,4 +424,5 @@ __all__ = [
     "parse_task",
     "register_primitive",
     "task_for_condition",
+    "unregister_primitive",
 ]
