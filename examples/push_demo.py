@@ -42,10 +42,10 @@ def push_demonstration(seed: int = 0) -> RecordedTrajectory:
         trajectory = plan(
             env,
             [
-                Waypoint(start + [0.0, 0.0, 0.15], down, CLOSED),
+                Waypoint(start + np.array([0.0, 0.0, 0.15]), down, CLOSED),
                 Waypoint(start, down, CLOSED, 1.0),
                 Waypoint(end, down, CLOSED, 2.0),
-                Waypoint(end + [0.0, 0.03, 0.15], down, CLOSED, 1.0),
+                Waypoint(end + np.array([0.0, 0.03, 0.15]), down, CLOSED, 1.0),
             ],
         )
     finally:
