@@ -102,7 +102,8 @@ class LLMConditions:
 def demonstration_evidence(library: SkillLibrary, task_name: str) -> DemoEvidence:
     """What the demonstration of ``task_name``'s primitive showed, renamed to the task's objects by role:
     the skill demonstrated on the same objects if any, else the suite's own demonstration of the
-    primitive (a primitive task's, rather than a step of a long-horizon one).
+    primitive (a primitive task's rather than a step of a long-horizon one; the first in the library, which
+    keeps the suite's registry order: ``grasp-bottle``, ``open-top_drawer``, ``move_into-...``).
 
     Raises:
         SkillError: no skill of that primitive, or one learned without its evidence (an old library).
@@ -115,7 +116,8 @@ def demonstration_evidence(library: SkillLibrary, task_name: str) -> DemoEvidenc
             f"the skill of {task.name!r} keeps no environment information of its demonstration; "
             "re-create the library with `taskcond learn`"
         )
-    skill = min(same, key=lambda s: (s.task_name != task.name, "." in s.task_id, s.task_id))
+    order = {s.task_id: k for k, s in enumerate(same)}  # the library's order: the suite's registry order
+    skill = min(same, key=lambda s: (s.task_name != task.name, "." in s.task_id, order[s.task_id]))
     assert skill.evidence is not None
     demo = parse_task(skill.task_name)
     return skill.evidence.rename(dict(zip(demo.objects, task.objects, strict=True)), task.name)
