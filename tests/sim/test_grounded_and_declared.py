@@ -20,6 +20,7 @@ from taskcond.execution.skills import SkillLibrary
 from taskcond.execution.sources import GroundedConditions, demonstration_evidence
 from taskcond.generator import ConditionGenerator
 from taskcond.grounding import ground
+from taskcond.llm.cache import CachedBackend
 from taskcond.primitives import load_primitives, unregister_primitive
 
 pytestmark = pytest.mark.sim
@@ -65,7 +66,7 @@ def test_a_real_demonstration_grounds_a_wrong_condition(library_dir) -> None:
 
 
 @pytest.mark.llm
-def test_a_declared_push_end_to_end(library_dir, tmp_path, embedded_backend) -> None:
+def test_a_declared_push_end_to_end(library_dir, tmp_path, embedded_backend, monkeypatch) -> None:
     runner = CliRunner()
     toml = str(EXAMPLES / "push.toml")
     try:
@@ -85,7 +86,8 @@ def test_a_declared_push_end_to_end(library_dir, tmp_path, embedded_backend) -> 
 
         # conditioned by the LLM (generalization: it has no example) and grounded in the demonstration
         load_primitives(toml)
-        source = GroundedConditions(ConditionGenerator(embedded_backend), library)
+        backend = CachedBackend(embedded_backend, tmp_path / "responses")
+        source = GroundedConditions(ConditionGenerator(backend), library)
         grounded = source.grounded("push cube in front of bowl")
         cond = grounded.condition
         assert parse_predicate("gripper not grasping") in cond.pre_conditions
@@ -93,6 +95,17 @@ def test_a_declared_push_end_to_end(library_dir, tmp_path, embedded_backend) -> 
         assert not any(
             str(p).startswith("gripper grasping") for p in (*cond.pre_conditions, *cond.post_conditions)
         )
+
+        # the command line prints the same repairs (its answers from the cache just written)
+        monkeypatch.setenv("TASKCOND_CACHE_DIR", str(tmp_path))
+        monkeypatch.delenv("TASKCOND_LLM", raising=False)
+        monkeypatch.setenv("TASKCOND_CONFIG", str(tmp_path / "none.toml"))
+        args = ["conditions", "--primitives", toml, "--explain", "--skills", str(library_dir)]
+        res = runner.invoke(app, [*args, "push cube in front of bowl"])
+        assert res.exit_code == 0, res.output
+        assert res.stdout.rstrip().endswith(cond.to_text())
+        assert f"grounded in the demonstration: {len(grounded.repairs)} repair(s)" in res.stdout
+        assert all(f"#   {r}" in res.stdout for r in grounded.repairs)
 
         # executed on another seed: the cube ends in front of the bowl, the trace holds the repairs
         result = run_episode(plan_run("push cube in front of bowl"), "llm+demo", 1001, library, source)
