@@ -180,3 +180,36 @@ def test_grounding_is_idempotent(task: str) -> None:
     assert ground(once.condition, ev).repairs == ()
     if task != "tilt mug":  # the reference of tilt names no state of the always open mug
         assert once.condition.matches(reference_condition(parse_task(task)))
+
+
+@pytest.mark.llm
+def test_table_ii_grounded_column_with_the_embedded_model(embedded_backend) -> None:
+    """Leave-one-out answers of the real model for 'release', grounded in a hand-built demonstration: the
+    third column counts them against the same reference, and grounding adds no relation."""
+    from taskcond.evaluation import evaluate_conditions
+    from taskcond.generator import ConditionGenerator
+
+    def demo(task):
+        obj = task.objects[0]
+        return evidence(
+            task.name,
+            [f"gripper grasping {obj}", f"{obj} above table"],
+            ["gripper not grasping"],
+            touched=[("gripper", obj)],
+        )
+
+    result = evaluate_conditions(
+        ConditionGenerator(embedded_backend),
+        trials=2,
+        primitives=["release"],
+        modes=["generalization"],
+        evidence=demo,
+    )
+    assert result.grounded["release"].trials == 2
+    # whatever the model answered for 'release', grounded in its demonstration it is the reference
+    valid = [o for o in result.outcomes if o.error is None]
+    assert valid and all(o.grounded for o in valid)
+    assert result.grounded["release"].correct == len(valid) >= result.generalization["release"].correct
+    assert "Generalization, grounded (LLM + demo)" in result.table()
+    assert all(o.incidental == [] for o in result.outcomes)
+    assert result.to_dict()["generalization_grounded"]["release"]["correct"] == len(valid)
