@@ -41,7 +41,10 @@ runner = CliRunner()
             ["conditions", "open box", "--prompt-version", "v9"],
             "error: --prompt-version 'v9': use one of v1, v2, v3, v4",
         ),
-        (["run", "LHT1", "--method", "magic"], "error: --method 'magic': use one of llm, llm+demo, env, none"),
+        (
+            ["run", "LHT1", "--method", "magic"],
+            "error: --method 'magic': use one of llm, llm+demo, env, none",
+        ),
         (["learn", "--task", "grasp-unicorn"], "error: unknown object(s) 'unicorn' for primitive 'grasp'"),
         (["eval", "long-horizon", "--task", "LHT9"], "error: 'LHT9' is not a long-horizon task"),
     ],
