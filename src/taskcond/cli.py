@@ -304,13 +304,14 @@ def eval_conditions(
         ),
     ] = None,
     grounded: Annotated[
-        bool,
+        bool | None,
         typer.Option(
             "--grounded/--no-grounded",
             help="Also ground every generalization answer in the suite's demonstration of its primitive "
-            "(column 'generalization, grounded'; needs the skill library, learned on first use).",
+            "(column 'generalization, grounded'; needs the [sim] extra and the skill library, learned on "
+            "first use). Default: when the [sim] extra is installed.",
         ),
-    ] = True,
+    ] = None,
     skills: SkillsOption = None,
 ) -> None:
     """Generation (all examples) and generalization (leave-one-out) accuracy per primitive (Table II), and
@@ -329,6 +330,14 @@ def eval_conditions(
         gen = _generator(llm, samples, no_cache, prompt_version=prompt_version)
     except (TaskNameError, LLMError) as exc:
         fail(str(exc))
+    if grounded is None:
+        import importlib.util
+
+        grounded = importlib.util.find_spec("pybullet") is not None
+        if not grounded:
+            typer.echo(
+                "(no 'generalization, grounded' column: it needs pip install 'taskcond[sim]')", err=True
+            )
     evidence = None
     if grounded and "generalization" in modes:
         from taskcond.execution.skills import SkillError
