@@ -12,11 +12,13 @@ stands between the robot and the bowl, and rises again.
 from __future__ import annotations
 
 import sys
+from pathlib import Path
 
 import numpy as np
 
 from taskcond.execution.demofile import RecordedTrajectory
 from taskcond.execution.kitchen import FreeTask
+from taskcond.primitives import load_primitives
 from taskcond.sim.franka import top_down
 from taskcond.tasks.env import KitchenEnv
 from taskcond.tasks.skills import CLOSED, plan
@@ -30,7 +32,8 @@ BEHIND = 0.055
 
 
 def push_demonstration(seed: int = 0) -> RecordedTrajectory:
-    """The scripted push in the default kitchen reset with ``seed``."""
+    """The scripted push in the default kitchen reset with ``seed`` (declares the primitive of push.toml)."""
+    load_primitives(Path(__file__).with_name("push.toml"))
     env = KitchenEnv(FreeTask(TASK))
     try:
         env.reset(seed=seed)

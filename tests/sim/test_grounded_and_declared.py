@@ -21,7 +21,7 @@ from taskcond.execution.sources import GroundedConditions, demonstration_evidenc
 from taskcond.generator import ConditionGenerator
 from taskcond.grounding import ground
 from taskcond.llm.cache import CachedBackend
-from taskcond.primitives import load_primitives, unregister_primitive
+from taskcond.primitives import PRIMITIVES, load_primitives, unregister_primitive
 
 pytestmark = pytest.mark.sim
 EXAMPLES = Path(__file__).parents[2] / "examples"
@@ -72,6 +72,7 @@ def test_a_declared_push_end_to_end(library_dir, tmp_path, embedded_backend, mon
     try:
         demo = tmp_path / "push.json"
         runpy.run_path(str(EXAMPLES / "push_demo.py"))["push_demonstration"]().save(demo)
+        unregister_primitive("push_in_front")  # the script declared it
         # undeclared, the task is refused; declared, its demonstration is learned into the library
         refused = runner.invoke(app, ["learn", "--demo", str(demo), "--out", str(library_dir)])
         assert refused.exit_code == 2 and "unknown verb 'push'" in refused.output
@@ -116,4 +117,5 @@ def test_a_declared_push_end_to_end(library_dir, tmp_path, embedded_backend, mon
         )
         json.dumps(result.events)
     finally:
-        unregister_primitive("push_in_front")
+        if "push_in_front" in PRIMITIVES:
+            unregister_primitive("push_in_front")
