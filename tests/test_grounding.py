@@ -213,3 +213,23 @@ def test_table_ii_grounded_column_with_the_embedded_model(embedded_backend) -> N
     assert "Generalization, grounded (LLM + demo)" in result.table()
     assert all(o.incidental == [] for o in result.outcomes)
     assert result.to_dict()["generalization_grounded"]["release"]["correct"] == len(valid)
+
+
+def test_the_grippers_own_place_is_only_corrected_by_a_relation_that_rules_it_out() -> None:
+    # the suite's perception does not see the gripper inside the box at the end of 'move bottle into box'
+    demo = evidence(
+        "move bottle into box",
+        ["gripper grasping bottle", "box open"],
+        ["gripper grasping bottle", "box open", "bottle inside box", "box below gripper"],
+    )
+    kept = ground(reference_condition(parse_task("move bottle into box")), demo)
+    assert parse_predicate("gripper inside box") in kept.condition.post_conditions
+    llm = condition(
+        "move bottle into box", ["gripper grasping bottle"], ["bottle inside box", "box above gripper"]
+    )
+    result = ground(llm, demo)
+    assert ("post", "box above gripper", "box below gripper") in {
+        (r.where, r.before, r.after) for r in result.repairs
+    }
+    # the twin of the carried bottle's relation is added: the gripper holding it is where it is
+    assert parse_predicate("gripper inside box") in result.condition.post_conditions

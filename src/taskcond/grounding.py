@@ -8,16 +8,21 @@ and that demonstration also shows what is true before and after the primitive: t
    post-condition the end contradicts, becomes the state the demonstration shows (``gripper grasping A`` →
    ``gripper not grasping``, ``A open`` → ``A closed``), or the relation the demonstration shows between
    the same two objects when the vocabulary rules the two out together (``A above B`` → ``A below B``). A
-   relation that holds at the other end of the demonstration moves there (a pre-condition that is only true
-   at the end is what the primitive achieves); anything else the demonstration contradicts is removed.
+   relation between objects that does not hold is contradicted (the environment information lists every
+   relation that holds); it moves to the other end of the demonstration if it holds there (a pre-condition
+   that is only true at the end is what the primitive achieves), else it is removed. A relation of the
+   gripper's own place (``gripper inside box``) is only contradicted by a relation that rules it out: where
+   the hand paused at the end of one demonstration does not define it, and the executor treats it as soft
+   too (no primitive achieves it on its own, Alg. 1 leaves it to the motion).
 2. *Missed changes* are added: when the state of the gripper, or of a container among the relevant objects,
    differs between start and end, its start state is a pre-condition and its end state a post-condition.
 3. *The gripper's state* at the start and at the end is completed when the condition has none: every
    primitive needs to know whether the hand starts free or holding something (Alg. 1 raises a grasp or a
    release for it).
 4. *A carried object and its gripper go together*: when a post-condition places the object the gripper
-   holds at the end (``A inside B``), the same relation of the gripper (``gripper inside B``) is added if
-   the demonstration shows it appear, and the other way round.
+   holds at the end (``A inside B``), the same relation of the gripper (``gripper inside B``) is added
+   unless the end rules it out; a post-condition placing the gripper adds the held object's relation when
+   the demonstration shows it appear.
 5. *Collisions*: the gripper's contacts during the demonstration with a relevant object are allowed.
 
 The LLM's relevant objects and relations decide what matters, the demonstration only decides what is true:
@@ -182,6 +187,18 @@ def _state_of(moment: frozenset[Predicate], thing: str) -> Predicate | None:
     return None
 
 
+def _rivals(pred: Predicate, moment: frozenset[Predicate]) -> list[Predicate]:
+    """The relations of ``moment`` between the same two objects that rule ``pred`` out."""
+    return sorted(
+        (q for q in moment if set(q.objects) == set(pred.objects) and contradictions([pred, q])), key=str
+    )
+
+
+def _about_gripper_place(pred: Predicate) -> bool:
+    """A spatial relation of a gripper itself (``gripper inside box``)."""
+    return isinstance(pred, SpatialRelation) and (is_gripper(pred.subject) or is_gripper(pred.reference))
+
+
 def _subject(pred: Predicate) -> str | None:
     """The thing whose state a state predicate gives (None for a relation)."""
     if isinstance(pred, GripperState):
@@ -236,6 +253,9 @@ class _Grounding:
             for pred in list(self.lists[where]):
                 if not self.decides(pred) or pred in moment:
                     continue
+                rival = _rivals(pred, moment)
+                if _about_gripper_place(pred) and not rival:
+                    continue  # not seen is not contradicted: the hand's place is soft (module doc)
                 self.lists[where].remove(pred)
                 subject = _subject(pred)
                 if subject is not None:
@@ -246,9 +266,6 @@ class _Grounding:
                     else:
                         self._replace(where, pred, actual, f"the demonstration's {when} shows '{actual}'")
                     continue
-                rival = [
-                    q for q in moment if contradictions([pred, q]) and set(q.objects) == set(pred.objects)
-                ]
                 other = self.other(where)
                 if rival:
                     self._replace(where, pred, rival[0], f"the demonstration's {when} shows '{rival[0]}'")
@@ -313,9 +330,15 @@ class _Grounding:
                     continue
                 partner = held if pred.subject == gripper else gripper
                 twin = SpatialRelation(partner, pred.relation, pred.reference)
-                if twin.reference == partner or twin in self.ev.start or twin not in self.ev.end:
+                if twin.reference == partner or _rivals(twin, self.ev.end):
                     continue
-                self.add("post", twin, f"{gripper} holds {held}: the demonstration ends with '{twin}' too")
+                if partner == gripper:
+                    reason = f"{gripper} holds {held}, so it is where {held} is"
+                elif twin in self.ev.end and twin not in self.ev.start:
+                    reason = f"{gripper} holds {held}: the demonstration ends with '{twin}'"
+                else:
+                    continue
+                self.add("post", twin, reason)
 
     def contacts(self) -> None:
         """Rule 5: the gripper's demonstrated contacts with relevant objects are allowed collisions."""
