@@ -181,6 +181,7 @@ def conditions(
         fail(str(exc))
     condition, repairs = result.condition, None
     if ground or explain:
+        _sim_import()
         from taskcond.execution.skills import SkillError
         from taskcond.execution.sources import demonstration_evidence
         from taskcond.grounding import ground as ground_in
