@@ -210,8 +210,9 @@ def conditions(
 
 
 @app.command()
-def tasks(as_json: JsonOption = False) -> None:
+def tasks(as_json: JsonOption = False, primitives: PrimitivesOption = None) -> None:
     """List the primitives with their task-name patterns and the suite's tasks (--json: the suite's tasks)."""
+    _declare(primitives)
     try:
         from taskcond.tasks.registry import list_tasks
 
@@ -233,7 +234,7 @@ def tasks(as_json: JsonOption = False) -> None:
     typer.echo("Primitives (id: pattern; aliases):")
     for p in PRIMITIVES.values():
         aliases = f"; {', '.join(p.aliases)}" if p.aliases else ""
-        typer.echo(f"  {p.id:14s} {p.pattern}{aliases}")
+        typer.echo(f"  {p.id:14s} {p.pattern}{aliases}{' (declared)' if p.declared else ''}")
     if suite:
         typer.echo("\nSuite tasks (id: objects or primitive tasks):")
         for t in suite:
@@ -468,9 +469,11 @@ def _learn_files(files: list[Path], out: Path | None) -> None:
     """``taskcond learn --demo``: replay each file in its scene, learn its skill, add it to the library."""
     from taskcond.execution.demofile import DemoFileError, load_trajectory
     from taskcond.execution.kitchen import replay_demonstration
-    from taskcond.execution.skills import learn_skill
+    from taskcond.execution.skills import SkillLibrary, learn_skill
 
-    library = _library(out)
+    # a new --out directory holds just these skills; the default library gets the oracles' skills first
+    fresh = out is not None and not (out / "library.json").exists()
+    library = SkillLibrary() if fresh else _library(out)
     directory = out or _default_library_dir()
     for path in files:
         try:
