@@ -484,7 +484,7 @@ def _learn_files(files: list[Path], out: Path | None) -> None:
         library.add(skill)
         cond = skill.condition
         typer.echo(
-            f"learned {skill.task_id} ({skill.primitive}, {len(skill.segments)} DMP pieces, "
+            f"learned {skill.task_id} ({skill.primitive}, DMP pieces: {len(skill.segments)}, "
             f"{skill.duration:.1f} s) from {path}"
         )
         if skill.evidence is not None and cond is not None:
