@@ -41,7 +41,10 @@ runner = CliRunner()
             ["conditions", "open box", "--prompt-version", "v9"],
             "error: --prompt-version 'v9': use one of v1, v2, v3, v4",
         ),
-        (["run", "LHT1", "--method", "magic"], "error: --method 'magic': use one of llm, env, none"),
+        (
+            ["run", "LHT1", "--method", "magic"],
+            "error: --method 'magic': use one of llm, llm+demo, env, none",
+        ),
         (["run", "LHT1", "--planner", "magic"], "error: --planner 'magic': use one of conditions, none"),
         (["run", ""], "error: empty instruction; give a suite task id"),
         (["run", " \t "], "error: empty instruction; give a suite task id"),

@@ -67,6 +67,57 @@ PromptVersionOption = Annotated[
 ]
 
 
+MethodOption = Annotated[
+    str,
+    typer.Option(
+        "--method",
+        help="Execution method: llm (conditions from the LLM), llm+demo (the LLM's conditions grounded in "
+        "the demonstrations), env (conditions from the demonstrations' environment information), none "
+        "(DMP only).",
+    ),
+]
+NoiseOption = Annotated[
+    float,
+    typer.Option("--noise", min=0.0, help="Perception noise sigma in metres on object centres and boxes."),
+]
+PlannerOption = Annotated[
+    str,
+    typer.Option(
+        "--planner",
+        help="conditions: check the plan against the start state with the task conditions and "
+        "repair it before moving (insert, drop, reorder); none: run the plan as given, the paper's "
+        "behaviour (Alg. 1 alone).",
+    ),
+]
+SkillsOption = Annotated[
+    Path | None,
+    typer.Option("--skills", help="Skill library directory (default: the user cache; learned on first use)."),
+]
+
+
+PrimitivesOption = Annotated[
+    list[Path] | None,
+    typer.Option(
+        "--primitives",
+        envvar="TASKCOND_PRIMITIVES",
+        help="Declare your own primitives from this TOML or JSON file (repeatable; also "
+        "$TASKCOND_PRIMITIVES, files separated by ':'): task-name pattern, aliases, target and movable "
+        "objects. See the README.",
+    ),
+]
+
+
+def _declare(files: list[Path] | None) -> None:
+    """Register the primitives declared in ``files`` (``--primitives``)."""
+    from taskcond.primitives import load_primitives
+
+    for path in files or ():
+        try:
+            load_primitives(path)
+        except TaskNameError as exc:
+            fail(str(exc))
+
+
 def fail(message: str) -> NoReturn:
     typer.echo(f"error: {message}", err=True)
     raise typer.Exit(2)
@@ -116,26 +167,69 @@ def conditions(
     ] = "fallback",
     seed: Annotated[int, typer.Option("--seed", help="Sampling seed.")] = 0,
     prompt_version: PromptVersionOption = PROMPT_VERSION,
+    ground: Annotated[
+        bool,
+        typer.Option(
+            "--ground",
+            help="Ground the answer in the demonstration of its primitive from the skill library (the "
+            "suite's, or one learned with `taskcond learn --demo`): the llm+demo condition source.",
+        ),
+    ] = False,
+    explain: Annotated[
+        bool,
+        typer.Option("--explain", help="With --ground implied: print the LLM's answer and every repair."),
+    ] = False,
+    skills: Annotated[
+        Path | None,
+        typer.Option("--skills", help="Skill library for --ground (default: the user cache's)."),
+    ] = None,
+    primitives: PrimitivesOption = None,
 ) -> None:
-    """Generate the task condition of TASK with the LLM (paper §III-B/C) and print it."""
+    """Generate the task condition of TASK with the LLM (paper §III-B/C) and print it; with --ground, checked
+    against the demonstration of its primitive (beyond the paper)."""
+    _declare(primitives)
     try:
         if grammar not in ("fallback", "always", "never"):
             fail(f"--grammar {grammar!r}: use fallback, always or never")
+        parse_task(task)
         gen = _generator(llm, samples, no_cache, grammar=grammar, prompt_version=prompt_version)
         result = gen.generate(task, exclude=exclude or (), seed=seed)
     except (TaskNameError, ConditionError, LLMError) as exc:
         fail(str(exc))
+    condition, repairs = result.condition, None
+    if ground or explain:
+        _sim_import()
+        from taskcond.execution.skills import SkillError
+        from taskcond.execution.sources import demonstration_evidence
+        from taskcond.grounding import ground as ground_in
+
+        try:
+            grounded = ground_in(condition, demonstration_evidence(_library(skills), task))
+        except SkillError as exc:
+            fail(str(exc))
+        condition, repairs = grounded.condition, grounded.repairs
     if as_json:
-        typer.echo(result.condition.to_json())
-    else:
-        typer.echo(result.condition.to_text())
-        source = "cache" if result.cached else f"{gen.backend.name}:{gen.backend.model}"
-        typer.echo(f"# {result.mode}, {result.seconds:.2f} s, from {source}", err=True)
+        out = condition.to_dict()
+        if repairs is not None:
+            out |= {"llm": result.condition.to_dict(), "repairs": [r.to_dict() for r in repairs]}
+        typer.echo(json.dumps(out, indent=2))
+        return
+    if explain:
+        typer.echo("# the LLM's answer:")
+        typer.echo("\n".join(f"#   {line}" for line in result.condition.to_text().splitlines()))
+        typer.echo(f"# grounded in the demonstration: {len(repairs or ())} repair(s)")
+        for repair in repairs or ():
+            typer.echo(f"#   {repair}")
+    typer.echo(condition.to_text())
+    source = "cache" if result.cached else f"{gen.backend.name}:{gen.backend.model}"
+    grounded_note = ", grounded in its demonstration" if repairs is not None else ""
+    typer.echo(f"# {result.mode}{grounded_note}, {result.seconds:.2f} s, from {source}", err=True)
 
 
 @app.command()
-def tasks(as_json: JsonOption = False) -> None:
+def tasks(as_json: JsonOption = False, primitives: PrimitivesOption = None) -> None:
     """List the primitives with their task-name patterns and the suite's tasks (--json: the suite's tasks)."""
+    _declare(primitives)
     try:
         from taskcond.tasks.registry import list_tasks
 
@@ -157,7 +251,7 @@ def tasks(as_json: JsonOption = False) -> None:
     typer.echo("Primitives (id: pattern; aliases):")
     for p in PRIMITIVES.values():
         aliases = f"; {', '.join(p.aliases)}" if p.aliases else ""
-        typer.echo(f"  {p.id:14s} {p.pattern}{aliases}")
+        typer.echo(f"  {p.id:14s} {p.pattern}{aliases}{' (declared)' if p.declared else ''}")
     if suite:
         typer.echo("\nSuite tasks (id: objects or primitive tasks):")
         for t in suite:
@@ -230,22 +324,69 @@ def eval_conditions(
             "score beside the generalization figure.",
         ),
     ] = True,
+    mode: Annotated[
+        list[str] | None,
+        typer.Option(
+            "--mode", help="Only these modes (repeatable): generation, generalization. Default both."
+        ),
+    ] = None,
+    grounded: Annotated[
+        bool | None,
+        typer.Option(
+            "--grounded/--no-grounded",
+            help="Also ground every generalization answer in the suite's demonstration of its primitive "
+            "(column 'generalization, grounded'; needs the [sim] extra and the skill library, learned on "
+            "first use). Default: when the [sim] extra is installed.",
+        ),
+    ] = None,
+    skills: SkillsOption = None,
 ) -> None:
-    """Generation (all examples) and generalization (leave-one-out) accuracy per primitive (Table II), with
-    the model's zero-shot state probe."""
+    """Generation (all examples) and generalization (leave-one-out) accuracy per primitive (Table II),
+    generalization grounded in the demonstrations, and the model's zero-shot state probe."""
     from tqdm import tqdm
 
-    from taskcond.evaluation import evaluate_conditions
+    from taskcond.evaluation import EVAL_OBJECTS, evaluate_conditions
     from taskcond.primitives import get_primitive
     from taskcond.results import RunConfig, code_version, llm_fields
 
+    modes = mode or ["generation", "generalization"]
+    bad = [m for m in modes if m not in ("generation", "generalization")]
+    if bad:
+        fail(f"--mode {bad[0]!r}: use generation or generalization")
     try:
         pids = [get_primitive(p).id for p in primitive] if primitive else list(PRIMITIVES)
         gen = _generator(llm, samples, no_cache, prompt_version=prompt_version)
     except (TaskNameError, LLMError) as exc:
         fail(str(exc))
-    bar = tqdm(total=2 * trials * len(pids), desc="conditions", unit="cond", file=sys.stderr, disable=None)
-    result = evaluate_conditions(gen, trials=trials, primitives=pids, progress=lambda _o: bar.update())
+    if grounded is None:
+        import importlib.util
+
+        grounded = importlib.util.find_spec("pybullet") is not None
+        if not grounded:
+            typer.echo(
+                "(no 'generalization, grounded' column: it needs pip install 'taskcond[sim]')", err=True
+            )
+    evidence = None
+    if grounded and "generalization" in modes:
+        from taskcond.execution.skills import SkillError
+        from taskcond.execution.sources import demonstration_evidence
+
+        _sim_import()
+        library = _library(skills)
+        try:
+            for pid in pids:  # fail before the LLM runs when a primitive has no demonstration
+                demonstration_evidence(library, PRIMITIVES[pid].task_name(*EVAL_OBJECTS[pid][0]))
+        except SkillError as exc:
+            fail(str(exc))
+
+        def evidence(task):
+            return demonstration_evidence(library, task.name)
+
+    total = len(modes) * trials * len(pids)
+    bar = tqdm(total=total, desc="conditions", unit="cond", file=sys.stderr, disable=None)
+    result = evaluate_conditions(
+        gen, trials=trials, primitives=pids, modes=modes, progress=lambda _o: bar.update(), evidence=evidence
+    )
     bar.close()
     config = RunConfig(kind="conditions", **llm_fields(llm, gen), code=code_version())
     if probe:
@@ -260,44 +401,24 @@ def eval_conditions(
         typer.echo(json.dumps(result.to_dict() | made, indent=2))
     else:
         typer.echo(result.table())
+        medians = ", ".join(f"{m} {result.median_seconds(m):.2f}" for m in modes)
         typer.echo(
             f"\nmodel {result.model}; prompts {result.prompt_version}, samples {result.samples}; median "
-            f"seconds per condition: generation {result.median_seconds('generation'):.2f}, "
-            f"generalization {result.median_seconds('generalization'):.2f}; configuration {config.digest} "
-            f"(code {config.code})"
+            f"seconds per condition: {medians}; configuration {config.digest} (code {config.code})"
         )
         if result.probe is not None:
             typer.echo(
                 f"{result.probe.summary()}: zero-shot yes/no questions on the primitives' object states "
                 "(benchmarks/probe_llm.py); near chance, the model cannot know a left-out primitive's states"
             )
-
-
-MethodOption = Annotated[
-    str,
-    typer.Option(
-        "--method",
-        help="Execution method: llm (conditions from the LLM), env (conditions from the demonstrations' "
-        "environment information), none (DMP only).",
-    ),
-]
-NoiseOption = Annotated[
-    float,
-    typer.Option("--noise", min=0.0, help="Perception noise sigma in metres on object centres and boxes."),
-]
-PlannerOption = Annotated[
-    str,
-    typer.Option(
-        "--planner",
-        help="conditions: check the plan against the start state with the task conditions and "
-        "repair it before moving (insert, drop, reorder); none: run the plan as given, the paper's "
-        "behaviour (Alg. 1 alone).",
-    ),
-]
-SkillsOption = Annotated[
-    Path | None,
-    typer.Option("--skills", help="Skill library directory (default: the user cache; learned on first use)."),
-]
+        if result.grounded:
+            extra = sum(len(o.extra_relations) for o in result.outcomes)
+            incidental = sum(len(o.incidental) for o in result.outcomes)
+            repairs = sum(len(o.repairs) for o in result.outcomes)
+            typer.echo(
+                f"grounded in the suite's demonstrations: {repairs} repairs; relations beyond the reference "
+                f"in grounded answers: {extra} ({incidental} added by grounding)"
+            )
 
 
 def _sim_import() -> None:
@@ -335,15 +456,31 @@ def learn(
         ),
     ] = None,
     seed: Annotated[int, typer.Option("--seed", help="Seed of the first demonstration of each task.")] = 0,
+    demo: Annotated[
+        list[Path] | None,
+        typer.Option(
+            "--demo",
+            help="Learn from this demonstration file instead (repeatable; format in the README, "
+            "`taskcond record` writes one): its skill is added to the library.",
+        ),
+    ] = None,
+    primitives: PrimitivesOption = None,
 ) -> None:
-    """Record oracle demonstrations and store the skill library: DMPs and FromEnv conditions (§III-D)."""
+    """Record oracle demonstrations and store the skill library: DMPs and FromEnv conditions (§III-D); or
+    learn the skills of demonstration files (--demo)."""
     _sim_import()
+    _declare(primitives)
     from tqdm import tqdm
 
     from taskcond.execution.kitchen import CONTEXTS, learn_library, primitive_task_ids
     from taskcond.execution.runner import default_library_dir
     from taskcond.tasks.registry import UnknownTaskError, get_task
 
+    if demo:
+        if task:
+            fail("give either --task (oracle demonstrations) or --demo (demonstration files), not both")
+        _learn_files(demo, out)
+        return
     ids = task or [*primitive_task_ids(), *CONTEXTS]
     try:
         for tid in ids:
@@ -367,6 +504,70 @@ def learn(
     typer.echo(f"{len(library)} skills from {len(ids)} tasks in {directory}")
     if failed:
         typer.echo(f"oracle failed on every try for: {', '.join(failed)} (their last try was kept)", err=True)
+
+
+def _learn_files(files: list[Path], out: Path | None) -> None:
+    """``taskcond learn --demo``: replay each file in its scene, learn its skill, add it to the library."""
+    from taskcond.execution.demofile import DemoFileError, load_trajectory
+    from taskcond.execution.kitchen import replay_demonstration
+    from taskcond.execution.skills import SkillLibrary, learn_skill
+
+    # a new --out directory holds just these skills; the default library gets the oracles' skills first
+    fresh = out is not None and not (out / "library.json").exists()
+    library = SkillLibrary() if fresh else _library(out)
+    directory = out or _default_library_dir()
+    for path in files:
+        try:
+            demonstration = replay_demonstration(load_trajectory(path))
+            skill = learn_skill(demonstration)
+        except (DemoFileError, ValueError) as exc:
+            fail(str(exc))
+        library.add(skill)
+        cond = skill.condition
+        typer.echo(
+            f"learned {skill.task_id} ({skill.primitive}, DMP pieces: {len(skill.segments)}, "
+            f"{skill.duration:.1f} s) from {path}"
+        )
+        if skill.evidence is not None and cond is not None:
+            typer.echo(
+                f"  FromEnv: pre [{', '.join(map(str, cond.pre_conditions))}] post "
+                f"[{', '.join(map(str, cond.post_conditions))}]"
+            )
+    library.save(directory)
+    typer.echo(f"{len(library)} skills in {directory}")
+
+
+def _default_library_dir() -> Path:
+    from taskcond.execution.runner import default_library_dir
+
+    return default_library_dir()
+
+
+@app.command()
+def record(
+    task: Annotated[
+        str, typer.Argument(help="Suite primitive task id (see `taskcond tasks`), e.g. grasp-bottle.")
+    ],
+    out: Annotated[Path, typer.Option("--out", help="Demonstration file to write (.json).")],
+    seed: Annotated[int, typer.Option("--seed", help="Seed of the scene.")] = 0,
+) -> None:
+    """Record the oracle of a suite primitive task as a demonstration file (what `learn --demo` reads)."""
+    _sim_import()
+    from taskcond.execution.kitchen import record_trajectory
+
+    if out.suffix.lower() != ".json":
+        fail(f"--out {out}: a demonstration file is .json")
+    try:
+        recorded, ok = record_trajectory(task, seed)
+    except ValueError as exc:
+        fail(str(exc))
+    recorded.save(out)
+    typer.echo(
+        f"{out}: {recorded.task_name!r}, {len(recorded.times)} samples, {recorded.times[-1]:.1f} s"
+        + ("" if ok else " (the oracle failed on this seed)")
+    )
+    if not ok:
+        raise typer.Exit(1)
 
 
 def _slug(text: str) -> str:
@@ -407,10 +608,12 @@ def run(
             "table area; the same seed gives the same scene).",
         ),
     ] = "task",
+    primitives: PrimitivesOption = None,
 ) -> None:
     """Perform a long-horizon task: conditions, the look-ahead planner, Alg. 1 pre-condition satisfaction,
     Alg. 2 DMP control; a free instruction is judged by its goal predicates (exit 0 only on success)."""
     _sim_import()
+    _declare(primitives)
     from taskcond.execution.decompose import DecompositionError, decompose
     from taskcond.execution.executor import METHODS
     from taskcond.execution.kitchen import STARTS, scene_objects
@@ -583,13 +786,14 @@ def _run_episodes(jobs, out: Path, settings: ExecutionSettings, desc: str) -> tu
         fail(str(exc))
     done = results.done(Job.key_of)
     todo = [j for j in jobs if j.key not in done]
-    if any(j.method == "llm" for j in todo):  # every condition once here; the workers read the cache
+    llms = [m for m in ("llm", "llm+demo") if any(j.method == m for j in todo)]
+    for method in llms:  # every condition once here; the workers read the cache
         try:
-            source = make_source("llm", library, settings.llm)
-            names = {s for j in todo if j.method == "llm" for s in plan_run(j.task).steps}
+            source = make_source(method, library, settings.llm)  # type: ignore[arg-type]
+            names = {s for j in todo if j.method == method for s in plan_run(j.task).steps}
             for name in tqdm(sorted(names), desc="conditions", unit="task", file=sys.stderr, disable=None):
                 source.condition(name)  # type: ignore[union-attr]
-        except (LLMError, TaskNameError, ConditionError) as exc:
+        except (LLMError, TaskNameError, ConditionError, ValueError) as exc:
             fail(str(exc))
     bar = tqdm(total=len(jobs), desc=desc, unit="episode", file=sys.stderr, disable=None)
     bar.update(len(jobs) - len(todo))
@@ -647,7 +851,7 @@ def _eval_execution(
     from taskcond.execution.executor import METHODS
     from taskcond.execution.runner import eval_task_ids, jobs_for, summarize
 
-    methods = method or list(METHODS)
+    methods = method or ["llm", "env", "none"]
     bad = [m for m in methods if m not in METHODS]
     if bad:
         fail(f"--method {bad[0]!r}: use one of {', '.join(METHODS)}")
@@ -686,7 +890,8 @@ def _eval_command(kind: str):
         method: Annotated[
             list[str] | None,
             typer.Option(
-                "--method", help="Methods to compare (repeatable): llm, env, none. Default all three."
+                "--method",
+                help="Methods to compare (repeatable): llm, llm+demo, env, none. Default llm, env, none.",
             ),
         ] = None,
         workers: Annotated[

@@ -125,7 +125,7 @@ def load_reasons(chat: Chat, version: str = PROMPT_VERSION) -> dict[str, str] | 
         name, sep, reason = line.partition(":")
         if sep and reason.strip():
             reasons[" ".join(name.split())] = " ".join(reason.split())
-    missing = [pid for pid in PRIMITIVES if letter_example(pid).task_name not in reasons]
+    missing = [pid for pid in example_conditions() if letter_example(pid).task_name not in reasons]
     if missing:
         raise ValueError(f"prompt version {version!r}: reasons_{chat}.txt lacks the examples of {missing}")
     return reasons
@@ -146,7 +146,7 @@ def example_turns(
     answer opens with a ``Reasoning:`` line: a worked few-shot chain of thought (Wei et al., 2022) that
     the model imitates before it answers."""
     excluded = set(exclude)
-    ids = [pid for pid in PRIMITIVES if pid not in excluded]
+    ids = [pid for pid in example_conditions() if pid not in excluded]
     if order_seed is not None:
         random.Random(order_seed).shuffle(ids)
     if nearest is not None:
@@ -601,6 +601,8 @@ class ConditionGenerator:
         start = time.perf_counter()
         task = task_name if isinstance(task_name, ParsedTask) else parse_task(task_name)
         excluded = tuple(get_primitive(pid).id for pid in exclude)
+        if task.primitive.id not in example_conditions() and task.primitive.id not in excluded:
+            excluded += (task.primitive.id,)  # a declared primitive has no example: always generalized
         mode: Literal["generation", "generalization"] = (
             "generalization" if task.primitive.id in excluded else "generation"
         )

@@ -7,8 +7,11 @@ condition-to-task mapping, the task suite — reads it from :data:`PRIMITIVES`.
 
 from __future__ import annotations
 
+import json
 import re
+import tomllib
 from dataclasses import dataclass
+from pathlib import Path
 
 from taskcond.conditions import (
     ConditionError,
@@ -40,6 +43,11 @@ class Primitive:
         pattern: canonical task name with letter placeholders, e.g. ``"move A into B"``.
         aliases: other phrasings accepted by the parser, same placeholders.
         n_objects: number of objects the task name names.
+        target: index of the task object whose centre the approach aims at (Alg. 2 line 3), -1 for the
+            goal position of ``move A to position``, None when the primitive has no target and replays its
+            demonstrated displacement (release, tilt).
+        movable: indices of the task objects the primitive carries or pushes (the scene must let them move).
+        declared: declared by a user (:func:`register_primitive`) rather than one of the paper's ten.
     """
 
     id: str
@@ -47,6 +55,9 @@ class Primitive:
     pattern: str
     aliases: tuple[str, ...] = ()
     n_objects: int = 1
+    target: int | None = 0
+    movable: tuple[int, ...] = ()
+    declared: bool = False
 
     @property
     def verb(self) -> str:
@@ -79,14 +90,32 @@ PRIMITIVES: dict[str, Primitive] = {
     p.id: p
     for p in (
         Primitive(
-            "grasp", "Grasp", "grasp A", ("pick up A", "pick A up", "pick A", "grab A", "hold A up", "hold A")
+            "grasp",
+            "Grasp",
+            "grasp A",
+            ("pick up A", "pick A up", "pick A", "grab A", "hold A up", "hold A"),
+            movable=(0,),
         ),
-        Primitive("release", "Release", "release A", ("let go of A", "drop A", "put down A", "put A down")),
+        Primitive(
+            "release",
+            "Release",
+            "release A",
+            ("let go of A", "drop A", "put down A", "put A down"),
+            target=None,
+            movable=(0,),
+        ),
         Primitive("open", "Open", "open A"),
         Primitive("close", "Close", "close A", ("shut A",)),
-        Primitive("tilt", "Tilt", "tilt A", ("pour A",)),
+        Primitive("tilt", "Tilt", "tilt A", ("pour A",), target=None, movable=(0,)),
         Primitive("fold", "Fold", "fold A"),
-        Primitive("move", "Move", "move A to position", ("move A to the position", "move A to a position")),
+        Primitive(
+            "move",
+            "Move",
+            "move A to position",
+            ("move A to the position", "move A to a position"),
+            target=-1,
+            movable=(0,),
+        ),
         Primitive(
             "move_on_top",
             "MoveOnTop",
@@ -101,6 +130,8 @@ PRIMITIVES: dict[str, Primitive] = {
                 "move A onto B",
             ),
             2,
+            target=1,
+            movable=(0,),
         ),
         Primitive(
             "move_into",
@@ -108,6 +139,8 @@ PRIMITIVES: dict[str, Primitive] = {
             "move A into B",
             ("put A into B", "place A into B", "put A in B", "place A in B"),
             2,
+            target=1,
+            movable=(0,),
         ),
         Primitive(
             "move_in_front",
@@ -115,6 +148,8 @@ PRIMITIVES: dict[str, Primitive] = {
             "move A in front of B",
             ("put A in front of B", "place A in front of B"),
             2,
+            target=1,
+            movable=(0,),
         ),
     )
 }
@@ -151,11 +186,15 @@ def _specificity(prim: Primitive, regex: re.Pattern[str]) -> int:
     return len(re.sub(r"\(\?P<\w>\.\+\?\)", "", regex.pattern))
 
 
-_PATTERNS: list[tuple[Primitive, re.Pattern[str]]] = sorted(
-    ((p, r) for p in PRIMITIVES.values() for r in p.regexes()), key=lambda pr: -_specificity(*pr)
-)
-"""Every pattern and alias, most specific (longest literal text) first, so that ``put A in front of B`` is
-not read as ``put A in B``."""
+def _patterns() -> list[tuple[Primitive, re.Pattern[str]]]:
+    """Every pattern and alias, most specific (longest literal text) first, so that ``put A in front of B``
+    is not read as ``put A in B``."""
+    return sorted(
+        ((p, r) for p in PRIMITIVES.values() for r in p.regexes()), key=lambda pr: -_specificity(*pr)
+    )
+
+
+_PATTERNS = _patterns()
 
 
 def _parsed(name: str, prim: Primitive, m: re.Match[str]) -> ParsedTask:
@@ -208,6 +247,144 @@ def get_primitive(pid: str) -> Primitive:
         raise TaskNameError(f"unknown primitive {pid!r}; valid: {', '.join(PRIMITIVES)}") from None
 
 
+PRIMITIVES_ENV = "TASKCOND_PRIMITIVES"
+"""Environment variable naming declaration files of user primitives (several separated by the path
+separator, ``:`` on Linux), read by the command line like ``--primitives``."""
+_ID_RE = re.compile(r"^[a-z][a-z0-9_]*$")
+
+
+def register_primitive(
+    id: str,
+    pattern: str,
+    aliases: tuple[str, ...] | list[str] = (),
+    title: str | None = None,
+    target: str | None = None,
+    movable: tuple[str, ...] | list[str] = (),
+) -> Primitive:
+    """Declare a primitive beyond the paper's ten, so that its task names parse everywhere (conditions,
+    skills, execution). Its conditions come from the LLM's generalization (no example of it exists),
+    grounded in its demonstration when one is given; its skill from a demonstration (``taskcond learn
+    --demo``). Declaring the same primitive again is allowed; changing a declared one or reusing a built-in
+    id is not.
+
+    Args:
+        id: identifier, lower case letters, digits and ``_`` (``"push_in_front"``).
+        pattern: task name with the letters A, B, ... for its objects in order (``"push A in front of B"``);
+            it must start with a word and name each letter once.
+        aliases: other phrasings with the same letters.
+        title: display name (default: the id in CamelCase).
+        target: the letter of the object whose centre the demonstrated approach aims at (Alg. 2 line 3);
+            None: the skill replays its demonstrated motion from wherever the hand is.
+        movable: letters of the objects the primitive moves (checked against the scene before a run).
+
+    Raises:
+        TaskNameError: a malformed declaration, or one that clashes with a registered primitive.
+    """
+    where = f"primitive {id!r}"
+    if not _ID_RE.match(id):
+        raise TaskNameError(f"{where}: an id is lower case letters, digits and '_', starting with a letter")
+    canon = " ".join(pattern.lower().split())
+    letters = [w.upper() for w in canon.split() if len(w) == 1 and w.upper() in LETTERS]
+    n = len(letters)
+    if not n or letters != list(LETTERS[:n]):
+        raise TaskNameError(
+            f"{where}: pattern {pattern!r} must name its objects A, B, ... once each, in order "
+            "(e.g. 'push A in front of B')"
+        )
+    if canon.split()[0].upper() in LETTERS:
+        raise TaskNameError(f"{where}: pattern {pattern!r} must start with a verb, not an object")
+    canon = " ".join(w.upper() if w.upper() in LETTERS[:n] and len(w) == 1 else w for w in canon.split())
+    alias_list = tuple(" ".join(w.upper() if len(w) == 1 else w for w in a.lower().split()) for a in aliases)
+    for alias in alias_list:
+        if sorted(w for w in alias.split() if w in LETTERS) != list(LETTERS[:n]):
+            raise TaskNameError(f"{where}: alias {alias!r} must name the letters of {canon!r} once each")
+
+    def index(letter: str) -> int:
+        if letter.upper() not in LETTERS[:n]:
+            raise TaskNameError(f"{where}: {letter!r} is not one of the pattern's letters {letters}")
+        return LETTERS.index(letter.upper())
+
+    prim = Primitive(
+        id=id,
+        title=title or "".join(w.capitalize() for w in id.split("_")),
+        pattern=canon,
+        aliases=alias_list,
+        n_objects=n,
+        target=None if target is None else index(target),
+        movable=tuple(index(m) for m in movable),
+        declared=True,
+    )
+    old = PRIMITIVES.get(id)
+    if old is not None:
+        if old == prim:
+            return old
+        kind = "a built-in primitive" if not old.declared else "declared differently already"
+        raise TaskNameError(f"{where} is {kind}; choose another id")
+    clash = [
+        (p, pat)
+        for p in PRIMITIVES.values()
+        for pat in (p.pattern, *p.aliases)
+        if pat in (canon, *alias_list)
+    ]
+    if clash:
+        raise TaskNameError(f"{where}: {clash[0][1]!r} is already a pattern of {clash[0][0].id!r}")
+    PRIMITIVES[id] = prim
+    global _PATTERNS
+    _PATTERNS = _patterns()
+    return prim
+
+
+def unregister_primitive(id: str) -> None:
+    """Forget a declared primitive (the paper's ten cannot be removed)."""
+    prim = get_primitive(id)
+    if not prim.declared:
+        raise TaskNameError(f"{id!r} is a built-in primitive; only declared ones can be removed")
+    del PRIMITIVES[id]
+    global _PATTERNS
+    _PATTERNS = _patterns()
+
+
+def load_primitives(path: str | Path) -> list[Primitive]:
+    """Declare the primitives of a TOML or JSON file (see :func:`register_primitive` for the fields)::
+
+        [[primitive]]                      # JSON: {"primitive": [{...}, ...]}
+        id = "push_in_front"
+        pattern = "push A in front of B"
+        aliases = ["slide A in front of B"]
+        target = "A"
+        movable = ["A"]
+
+    Raises:
+        TaskNameError: an unreadable file or a bad declaration, with the file's name.
+    """
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+        data = json.loads(text) if path.suffix.lower() == ".json" else tomllib.loads(text)
+    except (OSError, ValueError) as exc:
+        raise TaskNameError(f"cannot read primitives from {path}: {' '.join(str(exc).split())}") from None
+    entries = data.get("primitive") if isinstance(data, dict) else None
+    if not isinstance(entries, list) or not entries:
+        raise TaskNameError(f"{path}: declare primitives as [[primitive]] tables (JSON: a 'primitive' list)")
+    fields = {"id", "pattern", "aliases", "title", "target", "movable"}
+    out = []
+    for k, entry in enumerate(entries, start=1):
+        if not isinstance(entry, dict) or not {"id", "pattern"} <= set(entry):
+            raise TaskNameError(f"{path}: primitive {k} needs at least 'id' and 'pattern'")
+        unknown = sorted(set(entry) - fields)
+        if unknown:
+            raise TaskNameError(
+                f"{path}: primitive {k} has unknown field(s) {unknown}; valid: {sorted(fields)}"
+            )
+        try:
+            out.append(register_primitive(**entry))
+        except TaskNameError as exc:
+            raise TaskNameError(f"{path}: {exc}") from None
+        except TypeError as exc:
+            raise TaskNameError(f"{path}: primitive {k}: {exc}") from None
+    return out
+
+
 def task_for_condition(pred: Predicate, grasped: str | None = None) -> str | None:
     """The primitive task that achieves an unmet condition: Cond2Task of the paper's Alg. 1 (§III-E).
 
@@ -238,10 +415,14 @@ def task_for_condition(pred: Predicate, grasped: str | None = None) -> str | Non
 __all__ = [
     "LETTERS",
     "PRIMITIVES",
+    "PRIMITIVES_ENV",
     "ParsedTask",
     "Primitive",
     "TaskNameError",
     "get_primitive",
+    "load_primitives",
     "parse_task",
+    "register_primitive",
     "task_for_condition",
+    "unregister_primitive",
 ]

@@ -196,7 +196,7 @@ def test_run_and_eval_commands(library_dir, tmp_path) -> None:
     assert data["success"] is True and data["plan"]["steps"][-1] == "close box"
     assert data["goal_missing"] == [] and {"box closed", "bottle inside box"} <= set(data["final_predicates"])
     bad = runner.invoke(app, ["run", "LHT1", "--method", "magic"])
-    assert bad.exit_code == 2 and "use one of llm, env, none" in bad.output
+    assert bad.exit_code == 2 and "use one of llm, llm+demo, env, none" in bad.output
 
     out = tmp_path / "eval.jsonl"
     args = ["eval", "long-horizon", "--task", "LHT1", "--method", "none", "--episodes", "2", "--workers", "1"]

@@ -15,6 +15,7 @@ import numpy as np
 from taskcond.conditions import Predicate, TaskCondition
 from taskcond.execution.skills import Skill
 from taskcond.execution.world import Touch
+from taskcond.grounding import Repair
 
 
 @dataclass(frozen=True)
@@ -23,7 +24,9 @@ class Event:
 
     Attributes:
         time: world time, s.
-        kind: ``step`` (a top-level primitive starts), ``condition``, ``ignored`` (condition parts that
+        kind: ``step`` (a top-level primitive starts), ``repair`` (what grounding in a demonstration
+            changed in the LLM's condition, with ``repairs``: a list of ``{action, where, before, after,
+            reason}``), ``condition``, ``ignored`` (condition parts that
             cannot apply here), ``skip`` (post-conditions already hold), ``raise`` (Alg. 1 raises a
             primitive for an unmet pre-condition), ``primitive`` (a primitive's DMPs start),
             ``collision`` (unallowed, adjusted), ``post`` (post-conditions met), ``post_missing``,
@@ -75,6 +78,15 @@ class EventLog:
 
     def step(self, task: str) -> None:
         self.emit("step", task, 0, f"step: {task}")
+
+    def repair(self, task: str, depth: int, repairs: Sequence[Repair]) -> None:
+        self.emit(
+            "repair",
+            task,
+            depth,
+            f"{task}: grounded in its demonstration: {'; '.join(map(str, repairs))}",
+            {"repairs": [r.to_dict() for r in repairs]},
+        )
 
     def condition(self, task: str, depth: int, source: str, cond: TaskCondition) -> None:
         self.emit(

@@ -22,9 +22,12 @@ from taskcond.conditions import (
     SpatialRelation,
 )
 from taskcond.envs.kitchen import KitchenEnv
+from taskcond.execution.demofile import RecordedTrajectory
 from taskcond.execution.skills import Demonstration, SkillLibrary, learn_skill, target_object
 from taskcond.execution.sources import condition_from_environment
 from taskcond.execution.world import Observation, Touch
+from taskcond.grounding import DemoEvidence
+from taskcond.primitives import get_primitive, parse_task
 from taskcond.sim.perception import EnvironmentInfo, Perception, PerceptionConfig
 from taskcond.sim.recording import VideoRecorder
 from taskcond.sim.scene import KINOVA_GRIPPER, SceneConfig, dual_arm_config
@@ -151,9 +154,9 @@ class KitchenWorld:
         free, joints, interiors = self._free, self._joints, self._interiors
         if primitive in ("open", "close") and objects[0] not in joints:
             return f"{objects[0]!r} has no lid, door or drawer (containers: {', '.join(joints)})"
-        carried = ("grasp", "release", "tilt", "move", "move_on_top", "move_into", "move_in_front")
-        if primitive in carried and objects[0] not in free:
-            return f"{objects[0]!r} cannot be picked up (movable objects: {', '.join(free)})"
+        fixed = [objects[k] for k in get_primitive(primitive).movable if objects[k] not in free]
+        if fixed:
+            return f"{fixed[0]!r} cannot be moved (movable objects: {', '.join(free)})"
         if primitive == "move_into" and objects[1] not in interiors:
             return f"{objects[1]!r} is not a container (containers: {', '.join(interiors)})"
         if primitive == "fold" and ("cloth" not in self._objects or len(self._arms) < 2):
@@ -335,24 +338,29 @@ def final_predicates(env: KitchenEnv) -> list[str]:
 
 # ----------------------------------------------------------------------------------- demonstrations
 def _record_step(world: KitchenWorld, step: PrimitiveTask, task_id: str) -> Demonstration:
-    """Execute one primitive oracle from the current state and record it (commanded end-effector
-    trajectory, environment information before and after, contacts during)."""
+    """Execute one primitive oracle from the current state and record it."""
+    actions = (trajectory.action(i) for trajectory in step.plans(world.env) for i in range(len(trajectory)))
+    return _record(world, step.info.task_name, task_id, actions)
+
+
+def _record(world: KitchenWorld, name: str, task_id: str, actions: Iterable[np.ndarray]) -> Demonstration:
+    """Command ``actions`` (each (8,) or (16,): position, quaternion xyzw, gripper per arm) one control step
+    each from the current state and record the demonstration of task ``name``: the commanded end-effector
+    trajectory, the environment information before and after, the contacts during."""
     env = world.env
     before = world.observe()
-    name = step.info.task_name
     target = target_object(name)
     center = world.locate(target, before) if target is not None else None
     touched: set[Collision] = set()
     contact = -1
     rows: list[np.ndarray] = []
-    for trajectory in step.plans(env):
-        for i in range(len(trajectory)):
-            rows.append(trajectory.action(i))
-            env.step(rows[-1])
-            for touch in world.touches():
-                touched.add(touch.collision)
-                if contact < 0 and target is not None and {touch.a, touch.b} == {"gripper", target}:
-                    contact = len(rows) - 1
+    for action in actions:
+        rows.append(np.asarray(action, float))
+        env.step(rows[-1])
+        for touch in world.touches():
+            touched.add(touch.collision)
+            if contact < 0 and target is not None and {touch.a, touch.b} == {"gripper", target}:
+                contact = len(rows) - 1
     for _ in range(5):
         env.step(rows[-1])
     after = world.observe()
@@ -360,8 +368,16 @@ def _record_step(world: KitchenWorld, step: PrimitiveTask, task_id: str) -> Demo
     arms = [actions[:, :8]]
     if actions.shape[1] == 16 and np.ptp(actions[:, 8:], axis=0).max() > KINOVA_STILL:
         arms.append(actions[:, 8:])
+    task = parse_task(name)
+    evidence = DemoEvidence(
+        task.name,
+        frozenset((*task.objects, *world.arms)),
+        before.predicates,
+        after.predicates,
+        frozenset(touched),
+    )
     return Demonstration(
-        task_name=name,
+        task_name=task.name,
         task_id=task_id,
         times=np.arange(len(actions)) * env.dt,
         positions=np.concatenate([a[:, :3] for a in arms], axis=1),
@@ -371,6 +387,7 @@ def _record_step(world: KitchenWorld, step: PrimitiveTask, task_id: str) -> Demo
         target_center=np.zeros(3) if center is None else center,
         target_contact=contact,
         condition=condition_from_environment(name, before.predicates, after.predicates, touched),
+        evidence=evidence.restricted(evidence.objects),
     )
 
 
@@ -398,6 +415,67 @@ def record_demonstrations(task_id: str, seed: int = 0) -> tuple[list[Demonstrati
     finally:
         env.close()
     return demos, success
+
+
+def record_trajectory(task_id: str, seed: int = 0) -> tuple[RecordedTrajectory, bool]:
+    """Run the oracle of a suite primitive task once and return its commanded trajectory as a
+    demonstration file's content (``taskcond record``), with whether the oracle succeeded."""
+    task = get_task(task_id)
+    if not isinstance(task, PrimitiveTask):
+        raise ValueError(
+            f"{task_id!r} is not a primitive task; record one of: {', '.join(primitive_task_ids())}"
+        )
+    env = make(task_id)
+    try:
+        env.reset(seed=seed)
+        rows = [trajectory.action(i) for trajectory in task.plans(env) for i in range(len(trajectory))]
+        for row in rows:
+            env.step(row)
+        success = bool(task.success(env))
+        dt = env.dt
+    finally:
+        env.close()
+    actions = np.array(rows)
+    recorded = RecordedTrajectory(
+        task_name=task.info.task_name,
+        scene=task_id,
+        seed=seed,
+        times=np.arange(len(actions)) * dt,
+        positions=actions[:, :3],
+        orientations=actions[:, 3:7],
+        gripper=actions[:, 7],
+    )
+    return recorded, success
+
+
+def demonstration_id(task_name: str) -> str:
+    """Skill id of a demonstration from a file: ``<primitive>-<object>[-<object>]`` with spaces as ``_``,
+    like the suite's ids (``push_in_front-toothpaste-bottle``)."""
+    task = parse_task(task_name)
+    return "-".join([task.primitive.id, *(o.replace(" ", "_") for o in task.objects)])
+
+
+def replay_demonstration(recorded: RecordedTrajectory) -> Demonstration:
+    """Replay a demonstration file's trajectory in its scene (a suite task's initial state, else the default
+    kitchen) and record it like an oracle's: the environment information at its start and end, the contacts
+    during it, the target's centre and first contact.
+
+    Raises:
+        ValueError: an unknown scene, or a task whose objects the scene does not have.
+    """
+    env = KitchenEnv(FreeTask(recorded.task_name)) if recorded.scene is None else make(recorded.scene)
+    try:
+        env.reset(seed=recorded.seed)
+        world = KitchenWorld(env)
+        task = parse_task(recorded.task_name)
+        reason = world.affords(task.primitive.id, task.objects)
+        if reason is not None:
+            raise ValueError(f"cannot replay {task.name!r}: {reason}")
+        if recorded.arms > len(world.arms):
+            raise ValueError(f"the demonstration moves {recorded.arms} arms, the scene has {len(world.arms)}")
+        return _record(world, task.name, demonstration_id(task.name), recorded.actions(env.dt))
+    finally:
+        env.close()
 
 
 def primitive_task_ids() -> list[str]:
@@ -450,11 +528,14 @@ __all__ = [
     "STARTS",
     "FreeTask",
     "KitchenWorld",
+    "demonstration_id",
     "final_predicates",
     "instruction_scene",
     "learn_library",
     "primitive_task_ids",
     "random_start",
     "record_demonstrations",
+    "record_trajectory",
+    "replay_demonstration",
     "scene_objects",
 ]

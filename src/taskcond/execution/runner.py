@@ -39,7 +39,7 @@ from taskcond.execution.kitchen import (
 )
 from taskcond.execution.planner import Repair, goal_of, repair
 from taskcond.execution.skills import LIBRARY_FORMAT, SkillError, SkillLibrary
-from taskcond.execution.sources import EnvConditions, LLMConditions
+from taskcond.execution.sources import EnvConditions, GroundedConditions, LLMConditions
 from taskcond.llm.models import cache_dir
 from taskcond.primitives import TaskNameError, parse_task
 from taskcond.results import Job, ResultsFile, RunConfig, code_version, directory_digest, llm_fields
@@ -107,8 +107,9 @@ class RunPlan:
 
 def plan_run(spec: str, decomposer: Callable[[str, str], list[str]] | None = None) -> RunPlan:
     """Resolve ``spec``: a suite id (``LHT1``, ``grasp-bottle``), a primitive task name of the suite
-    (``"grasp bottle"``), else a free instruction that ``decomposer`` turns into primitive task names
-    (called with the instruction and its scene, :func:`~taskcond.execution.kitchen.instruction_scene`).
+    (``"grasp bottle"``), another primitive task name (a declared primitive, or objects no suite task has:
+    one step in the default scene), else a free instruction that ``decomposer`` turns into primitive task
+    names (called with the instruction and its scene, :func:`~taskcond.execution.kitchen.instruction_scene`).
 
     Raises:
         ValueError: an empty or blank ``spec``; a free instruction without a decomposer.
@@ -132,6 +133,8 @@ def plan_run(spec: str, decomposer: Callable[[str, str], list[str]] | None = Non
     for info in list_tasks():
         if info.kind == "primitive" and info.task_name == name:
             return RunPlan(spec, info.id, (info.task_name,))
+    if name is not None:  # a primitive task the suite does not have (a declared primitive, other objects)
+        return RunPlan(spec, None, (name,))
     if decomposer is None:
         raise ValueError(f"{spec!r} is neither a suite task id nor a primitive task of the suite")
     scene = instruction_scene(spec)
@@ -162,7 +165,7 @@ class EpisodeResult:
 
     Attributes:
         task: suite id, or the instruction.
-        method: ``none``, ``env`` or ``llm``.
+        method: ``none``, ``env``, ``llm`` or ``llm+demo``.
         seed: the reset seed (also seeds the perception noise).
         success: the ground-truth check: the suite task's, or for a free instruction every goal predicate
             holds and the executor did not stop.
@@ -350,8 +353,9 @@ def _goal(
 def make_source(
     method: Method, library: SkillLibrary, llm: str | None = None, cache: bool = True
 ) -> ConditionSource | None:
-    """The condition source of ``method``: None (DMP only), FromEnv, or the LLM of ``llm`` (the
-    ``--llm`` spec; default: $TASKCOND_LLM, the config file, else embedded)."""
+    """The condition source of ``method``: None (DMP only), FromEnv, the LLM of ``llm`` (the ``--llm``
+    spec; default: $TASKCOND_LLM, the config file, else embedded), or that LLM grounded in the library's
+    demonstrations (``llm+demo``)."""
     if method not in METHODS:
         raise ValueError(f"unknown method {method!r}; valid: {', '.join(METHODS)}")
     if method == "none":
@@ -364,7 +368,10 @@ def make_source(
     config = LLMConfig.load(llm)
     if not cache:
         config = replace(config, cache=False)
-    return LLMConditions(ConditionGenerator(make_backend(config)))
+    generator = ConditionGenerator(make_backend(config))
+    if method == "llm+demo":
+        return GroundedConditions(generator, library)
+    return LLMConditions(generator)
 
 
 # ------------------------------------------------------------------------------------------ evaluation

@@ -41,11 +41,14 @@ from scipy.spatial.transform import Rotation, Slerp
 
 from taskcond.conditions import TaskCondition
 from taskcond.dmp import DMPParameters, learn_dmp, load_parameters, save_parameters
+from taskcond.grounding import DemoEvidence
 from taskcond.primitives import parse_task
 
-LIBRARY_FORMAT = 2
-"""Version of the on-disk skill library layout; a library with another version is refused. Format 2:
-pieces may move several arms (3k-dimensional DMPs, 4k orientation columns); format 1 had one arm."""
+LIBRARY_FORMAT = 3
+"""Version of the on-disk skill library layout; a library with another version is refused. Format 3:
+each skill keeps the environment information at its demonstration's start and end (for grounding,
+:mod:`taskcond.grounding`); format 2: pieces may move several arms (3k-dimensional DMPs, 4k orientation
+columns); format 1 had one arm."""
 STANDSTILL = 0.01
 """End-effector speed (m/s) below which a demonstration sample counts as a standstill (of every arm)."""
 MIN_SEGMENT_SAMPLES = 3
@@ -72,6 +75,7 @@ class Demonstration:
         target_center: (3,) the target's centre at the start, metres, world frame (zeros if no target).
         target_contact: index of the first sample at which the gripper touched the target, or -1.
         condition: the task condition derived from the environment (FromEnv), or None.
+        evidence: the environment information at the start and end and the contacts during it, or None.
     """
 
     task_name: str
@@ -84,6 +88,7 @@ class Demonstration:
     target_center: np.ndarray
     target_contact: int = -1
     condition: TaskCondition | None = None
+    evidence: DemoEvidence | None = None
 
 
 @dataclass(frozen=True, eq=False)
@@ -180,6 +185,7 @@ class Skill:
         primitive: primitive id.
         segments: the DMP pieces in order.
         condition: the FromEnv task condition of the demonstration, or None.
+        evidence: what the demonstration showed at its start and end (:class:`DemoEvidence`), or None.
     """
 
     task_name: str
@@ -187,6 +193,7 @@ class Skill:
     primitive: str
     segments: tuple[Segment, ...]
     condition: TaskCondition | None = None
+    evidence: DemoEvidence | None = None
 
     @property
     def duration(self) -> float:
@@ -207,27 +214,13 @@ class Skill:
         return first.dmp.y0
 
 
-TARGET_ROLE: dict[str, int | None] = {
-    "grasp": 0,
-    "release": None,
-    "open": 0,
-    "close": 0,
-    "tilt": None,
-    "fold": 0,
-    "move": -1,
-    "move_on_top": 1,
-    "move_into": 1,
-    "move_in_front": 1,
-}
-"""Per primitive id, the task object whose centre is the goal (Alg. 2 line 3): grasp/open/close X → X,
-move A on top of / into / in front of B → B, move A to position → the position; release and tilt have none
-and use the demonstrated displacement (§III-E)."""
-
-
 def target_object(task_name: str) -> str | None:
-    """The object (or ``"position"``) a primitive task's approach aims at."""
+    """The object (or ``"position"``) a primitive task's approach aims at: the task object of its
+    primitive's :attr:`~taskcond.primitives.Primitive.target` (grasp/open/close X → X, move A on top of /
+    into / in front of B → B, move A to position → the position); None for release and tilt, which use the
+    demonstrated displacement (§III-E)."""
     task = parse_task(task_name)
-    role = TARGET_ROLE.get(task.primitive.id)
+    role = task.primitive.target
     if role is None:
         return None
     return "position" if role < 0 else task.objects[role]
@@ -290,6 +283,7 @@ def learn_skill(demo: Demonstration) -> Skill:
         primitive=task.primitive.id,
         segments=tuple(segments),
         condition=demo.condition,
+        evidence=demo.evidence,
     )
 
 
@@ -372,6 +366,7 @@ class SkillLibrary:
                     "primitive": skill.primitive,
                     "segments": pieces,
                     "condition": None if skill.condition is None else skill.condition.to_dict(),
+                    "evidence": None if skill.evidence is None else skill.evidence.to_dict(),
                 }
             )
         path = directory / "library.json"
@@ -414,7 +409,7 @@ class SkillLibrary:
                             offset=np.asarray(piece["offset"], float),
                         )
                     )
-                cond = entry.get("condition")
+                cond, evidence = entry.get("condition"), entry.get("evidence")
                 library.add(
                     Skill(
                         task_name=entry["task_name"],
@@ -422,6 +417,7 @@ class SkillLibrary:
                         primitive=entry["primitive"],
                         segments=tuple(segments),
                         condition=None if cond is None else TaskCondition.from_dict(cond),
+                        evidence=None if evidence is None else DemoEvidence.from_dict(evidence),
                     )
                 )
         except (KeyError, OSError, ValueError) as exc:
@@ -431,7 +427,6 @@ class SkillLibrary:
 
 __all__ = [
     "LIBRARY_FORMAT",
-    "TARGET_ROLE",
     "Demonstration",
     "Segment",
     "Skill",

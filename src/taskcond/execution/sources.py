@@ -1,5 +1,6 @@
-"""Where task conditions come from: the environment during the demonstrations (the paper's FromEnv) or
-the LLM (§III-B), behind the :class:`~taskcond.execution.executor.ConditionSource` interface.
+"""Where task conditions come from: the environment during the demonstrations (the paper's FromEnv), the
+LLM (§III-B), or the LLM checked against the demonstration (:mod:`taskcond.grounding`), behind the
+:class:`~taskcond.execution.executor.ConditionSource` interface.
 """
 
 from __future__ import annotations
@@ -13,8 +14,9 @@ from taskcond.conditions import (
     Predicate,
     TaskCondition,
 )
-from taskcond.execution.skills import SkillLibrary
+from taskcond.execution.skills import SkillError, SkillLibrary
 from taskcond.generator import ConditionGenerator
+from taskcond.grounding import DemoEvidence, Grounded, Repair, ground
 from taskcond.primitives import parse_task
 
 
@@ -97,4 +99,59 @@ class LLMConditions:
         return self.generator.generate(task_name, exclude=self.exclude).condition
 
 
-__all__ = ["EnvConditions", "LLMConditions", "condition_from_environment"]
+def demonstration_evidence(library: SkillLibrary, task_name: str) -> DemoEvidence:
+    """What the demonstration of ``task_name``'s primitive showed, renamed to the task's objects by role:
+    the skill demonstrated on the same objects if any, else the suite's own demonstration of the
+    primitive (a primitive task's rather than a step of a long-horizon one; the first in the library, which
+    keeps the suite's registry order: ``grasp-bottle``, ``open-top_drawer``, ``move_into-...``).
+
+    Raises:
+        SkillError: no skill of that primitive, or one learned without its evidence (an old library).
+    """
+    task = parse_task(task_name)
+    same = [s for s in library.skills.values() if s.primitive == task.primitive.id and s.evidence is not None]
+    if not same:
+        library.lookup(task.name)  # raises when the primitive has no skill at all
+        raise SkillError(
+            f"the skill of {task.name!r} keeps no environment information of its demonstration; "
+            "re-create the library with `taskcond learn`"
+        )
+    order = {s.task_id: k for k, s in enumerate(same)}  # the library's order: the suite's registry order
+    skill = min(same, key=lambda s: (s.task_name != task.name, "." in s.task_id, order[s.task_id]))
+    assert skill.evidence is not None
+    demo = parse_task(skill.task_name)
+    return skill.evidence.rename(dict(zip(demo.objects, task.objects, strict=True)), task.name)
+
+
+class GroundedConditions:
+    """LLM conditions grounded in the demonstration of the task's primitive (beyond the paper,
+    :func:`taskcond.grounding.ground`); each task's repairs are kept in :attr:`repairs` for the trace."""
+
+    name = "llm+demo"
+
+    def __init__(
+        self, generator: ConditionGenerator, library: SkillLibrary, exclude: Iterable[str] = ()
+    ) -> None:
+        self.generator = generator
+        self.library = library
+        self.exclude = tuple(exclude)
+        self.repairs: dict[str, tuple[Repair, ...]] = {}
+
+    def grounded(self, task_name: str) -> Grounded:
+        """The LLM's condition, its grounded form and the repairs."""
+        cond = self.generator.generate(task_name, exclude=self.exclude).condition
+        result = ground(cond, demonstration_evidence(self.library, task_name))
+        self.repairs[result.condition.task_name] = result.repairs
+        return result
+
+    def condition(self, task_name: str) -> TaskCondition:
+        return self.grounded(task_name).condition
+
+
+__all__ = [
+    "EnvConditions",
+    "GroundedConditions",
+    "LLMConditions",
+    "condition_from_environment",
+    "demonstration_evidence",
+]
