@@ -98,7 +98,7 @@ class RelationThresholds:
     inside_fraction: float = 0.5
     above_overlap: float = 0.5
     above_tolerance: float = 0.015
-    front_lateral_overlap: float = 0.5
+    front_lateral_overlap: float = 0.25
     front_max_gap: float = 0.20
     front_max_overlap: float = 0.01
 
