@@ -15,14 +15,14 @@ import sys
 from pathlib import Path
 
 import numpy as np
+from taskcond.tasks.env import KitchenEnv
 
 from taskcond.execution.demofile import RecordedTrajectory
 from taskcond.execution.kitchen import FreeTask
 from taskcond.primitives import load_primitives
 from taskcond.sim.franka import top_down
-from taskcond.tasks.env import KitchenEnv
-from taskcond.tasks.skills import CLOSED, plan
-from taskcond.tasks.trajectory import Waypoint
+from taskcond.tasks.motion_plan import Waypoint
+from taskcond.tasks.motions import CLOSED, plan
 
 TASK = "push cube in front of bowl"
 HEIGHT = 0.025

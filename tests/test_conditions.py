@@ -39,7 +39,7 @@ Collisions: gripper and bottle"""
         ("mug in front of bowl", SpatialRelation("mug", Relation.IN_FRONT_OF, "bowl")),
         ("gripper grasping coffee mug", GripperState("coffee mug")),
         ("gripper not grasping", GripperState(None)),
-        ("left gripper grasping cloth", GripperState("cloth", "left gripper")),
+        ("kinova gripper grasping cloth", GripperState("cloth", "kinova gripper")),
         ("top drawer open", ContainerState("top drawer", True)),
         ("  Box   Closed ", ContainerState("box", False)),
     ],

@@ -26,8 +26,10 @@ from enum import StrEnum
 from typing import Any
 
 GRIPPER = "gripper"
-"""Name of the (single-arm) gripper in conditions. With two arms, grippers are named ``left gripper`` and
-``right gripper``: any object name that ends in ``gripper`` is a gripper."""
+"""Name of the Franka's gripper in conditions (the only one in a single-arm scene)."""
+KINOVA_GRIPPER = "kinova gripper"
+"""Name of the Kinova's gripper in conditions (the second arm of the dual-arm scene). Any object name that
+ends in ``gripper`` is a gripper."""
 
 _NAME_RE = re.compile(r"^[a-z0-9][a-z0-9_\-]*( [a-z0-9_\-]+)*$")
 _RESERVED = (" and ", ",", " inside ", " above ", " below ", " in front of ", " grasping ")
@@ -67,7 +69,7 @@ def normalize_name(name: str) -> str:
 
 
 def is_gripper(name: str) -> bool:
-    """Whether an object name denotes a gripper (``gripper``, ``left gripper``, ...)."""
+    """Whether an object name denotes a gripper (``gripper``, ``kinova gripper``, ...)."""
     return name == GRIPPER or name.endswith(" " + GRIPPER)
 
 

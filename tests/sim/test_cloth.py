@@ -10,11 +10,10 @@ from numpy.testing import assert_allclose
 
 pytest.importorskip("pybullet")
 
-from taskcond.conditions import GripperState, Relation, SpatialRelation
+from taskcond.conditions import KINOVA_GRIPPER, GripperState, Relation, SpatialRelation
 from taskcond.sim.cloth import ClothSpec, FingerFrame, covered_layers, fold_measure, nodes_between_fingers
 from taskcond.sim.franka import top_down
 from taskcond.sim.perception import Perception, PerceptionConfig
-from taskcond.sim.scene import KINOVA_GRIPPER
 from taskcond.tasks.fold import fold_trajectory
 from taskcond.tasks.oracle import run_episode
 from taskcond.tasks.registry import make

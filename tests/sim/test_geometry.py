@@ -11,9 +11,9 @@ import pytest
 
 from taskcond.sim.assets import BoxSpec, MicrowaveSpec
 from taskcond.sim.scene import KitchenScene, SceneConfig
+from taskcond.tasks.motions import drawer_handle, grasp_of
 from taskcond.tasks.oracle import run_episode
 from taskcond.tasks.registry import make
-from taskcond.tasks.skills import drawer_handle, grasp_of
 
 pytestmark = pytest.mark.sim
 

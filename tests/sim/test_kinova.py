@@ -15,11 +15,11 @@ from scipy.spatial.transform import Rotation
 
 from taskcond.sim.description import GripperSpec
 from taskcond.sim.kinova import (
+    GEN3_GRIPPER,
     GEN3_HOME,
     GEN3_JOINTS,
     GEN3_LINK_MASSES,
     GEN3_LINK_NAMES,
-    GRIPPER,
     KinovaArm,
     forward_kinematics,
     gen3_urdf,
@@ -91,7 +91,7 @@ def test_pybullet_tcp_matches_dh_forward_kinematics(client: int) -> None:
     for q in random_configurations(12, seed=7):
         for index, value in zip(arm.arm_joints, q, strict=True):
             p.resetJointState(arm.body_id, index, value, physicsClientId=client)
-        expected = base @ forward_kinematics(q, GRIPPER.tcp_offset)
+        expected = base @ forward_kinematics(q, GEN3_GRIPPER.tcp_offset)
         position, orientation = arm.ee_pose()
         assert_allclose(position, expected[:3, 3], atol=1e-3)
         angle = (Rotation.from_quat(orientation).inv() * Rotation.from_matrix(expected[:3, :3])).magnitude()
@@ -170,7 +170,7 @@ def test_gripper_closes_symmetrically_and_lifts_a_box_by_friction(client: int) -
     p.changeDynamics(box, -1, lateralFriction=1.0, physicsClientId=client)
 
     arm.move_to((0.45, 0.0, 0.15), DOWN)
-    assert arm.gripper_opening() == pytest.approx(GRIPPER.max_opening, abs=1e-3)
+    assert arm.gripper_opening() == pytest.approx(GEN3_GRIPPER.max_opening, abs=1e-3)
     arm.move_to((0.45, 0.0, half + 0.005), DOWN)
     arm.close_gripper()
     arm.step(240)

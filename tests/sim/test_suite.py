@@ -265,7 +265,7 @@ def test_a_resized_vessel_is_held_by_its_own_wall():
     from dataclasses import replace
 
     from taskcond.sim.scene import SceneConfig
-    from taskcond.tasks.skills import grasp_of
+    from taskcond.tasks.motions import grasp_of
 
     config = SceneConfig()
     spec, placement = config.free_objects["bowl"]

@@ -264,7 +264,7 @@ class KitchenEnv(gym.Env):
 
     def hold(self, name: str, lift: float, grasp: Any) -> None:
         """Reset-time set-up of a held object: lift ``name`` by ``lift`` m where it stands, put the open
-        hand around it at the grasp pose ``grasp`` (a :class:`taskcond.tasks.skills.GraspPose`), close the
+        hand around it at the grasp pose ``grasp`` (a :class:`taskcond.tasks.motions.GraspPose`), close the
         fingers and let the grasp settle."""
         pos, _ = self.scene.pose(name)
         yaw = self.scene.yaw(name)

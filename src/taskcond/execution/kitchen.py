@@ -14,6 +14,7 @@ import numpy as np
 import pybullet as p
 
 from taskcond.conditions import (
+    KINOVA_GRIPPER,
     Collision,
     ContainerState,
     GripperState,
@@ -30,7 +31,7 @@ from taskcond.grounding import DemoEvidence
 from taskcond.primitives import get_primitive, parse_task
 from taskcond.sim.perception import EnvironmentInfo, Perception, PerceptionConfig
 from taskcond.sim.recording import VideoRecorder
-from taskcond.sim.scene import KINOVA_GRIPPER, SceneConfig, dual_arm_config
+from taskcond.sim.scene import SceneConfig, dual_arm_config
 from taskcond.tasks.base import PrimitiveTask, Task, TaskInfo
 from taskcond.tasks.groundtruth import GroundTruth
 from taskcond.tasks.registry import get_task, list_tasks, make

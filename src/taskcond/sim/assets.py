@@ -197,7 +197,7 @@ def urdf_text(name: str, links: list[Link], joints: list[Joint] | None = None) -
     return f'<?xml version="1.0"?>\n<robot name="{name}">\n{body}\n</robot>\n'
 
 
-def cache_dir() -> Path:
+def asset_dir() -> Path:
     """Directory of generated assets: ``$TASKCOND_ASSET_DIR`` or a per-user directory under the system
     temporary directory (never the working directory)."""
     env = os.environ.get("TASKCOND_ASSET_DIR")
@@ -208,9 +208,9 @@ def cache_dir() -> Path:
 
 
 def write_urdf(name: str, text: str) -> Path:
-    """Write URDF ``text`` once (atomically) under :func:`cache_dir`, named by its content hash."""
+    """Write URDF ``text`` once (atomically) under :func:`asset_dir`, named by its content hash."""
     digest = hashlib.sha1(text.encode()).hexdigest()[:16]
-    path = cache_dir() / f"{name}-{digest}.urdf"
+    path = asset_dir() / f"{name}-{digest}.urdf"
     if not path.exists():
         tmp = path.with_suffix(f".{os.getpid()}.tmp")
         tmp.write_text(text)

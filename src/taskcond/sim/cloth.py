@@ -36,7 +36,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import pybullet as p
 
-from taskcond.sim.assets import cache_dir
+from taskcond.sim.assets import asset_dir
 
 
 @dataclass(frozen=True)
@@ -130,7 +130,7 @@ def cloth_obj_path(spec: ClothSpec) -> str:
     lines += [f"f {a + 1}/{a + 1}/1 {b + 1}/{b + 1}/1 {c + 1}/{c + 1}/1" for a, b, c in spec.triangles()]
     text = "\n".join(lines) + "\n"
     digest = hashlib.sha1(text.encode()).hexdigest()[:16]
-    path = cache_dir() / f"cloth-{digest}.obj"
+    path = asset_dir() / f"cloth-{digest}.obj"
     if not path.exists():
         tmp = path.with_suffix(f".{os.getpid()}.tmp")
         tmp.write_text(text)

@@ -155,7 +155,8 @@ class GripperGeometry:
         return self.palm_size[2] + self.finger_size[2] - self.tcp_from_tip
 
 
-GRIPPER = GripperGeometry()
+GEN3_GRIPPER = GripperGeometry()
+"""The geometry of the Gen3's two-finger gripper that the URDF builder and the arm's kinematics use."""
 
 
 # ----------------------------------------------------------------------------------------------------------
@@ -182,7 +183,8 @@ def forward_kinematics(q: ArrayLike, tcp_offset: float = 0.0) -> np.ndarray:
 
     Args:
         q: joint positions (7,), rad.
-        tcp_offset: 0 for the tool frame (flange); ``GRIPPER.tcp_offset`` for the gripper's tool centre point.
+        tcp_offset: 0 for the tool frame (flange); ``GEN3_GRIPPER.tcp_offset`` for the gripper's tool
+            centre point.
     """
     q = np.asarray(q, dtype=float)
     if q.shape != (7,):
@@ -219,7 +221,7 @@ GEN3_SHOULDER_TO_FLANGE = sum(abs(row.d) + abs(row.a) for row in GEN3_DH[1:])
 
 
 @dataclass(frozen=True)
-class Shape:
+class Solid:
     """A solid primitive in a link's frame. ``size``: cylinder (radius, length along its z), sphere
     (radius,), box (x, y, z) full extents; ``pose`` (4, 4) places its centre."""
 
@@ -261,7 +263,7 @@ class LinkSpec:
 
     name: str
     mass: float
-    shapes: tuple[Shape, ...] = ()
+    shapes: tuple[Solid, ...] = ()
     rgba: tuple[float, float, float, float] = (0.75, 0.75, 0.78, 1.0)
     lateral_friction: float | None = None
 
@@ -347,9 +349,9 @@ class JointXml:
         return "\n".join(lines)
 
 
-def _axis_segment(origin: np.ndarray, start: float, end: float, radius: float) -> Shape:
+def _axis_segment(origin: np.ndarray, start: float, end: float, radius: float) -> Solid:
     """Cylinder on the z axis of frame ``origin`` (4, 4) between z = ``start`` and z = ``end``."""
-    return Shape("cylinder", (radius, abs(end - start)), origin @ _translation(0.0, 0.0, (start + end) / 2))
+    return Solid("cylinder", (radius, abs(end - start)), origin @ _translation(0.0, 0.0, (start + end) / 2))
 
 
 TOOL_LINK = "tool_frame"
@@ -368,7 +370,7 @@ class _UrdfBuilder:
         return '<?xml version="1.0"?>\n<robot name="kinova_gen3_7dof">\n' + "\n".join(body) + "\n</robot>\n"
 
 
-def gen3_urdf(gripper: GripperGeometry = GRIPPER) -> str:
+def gen3_urdf(gripper: GripperGeometry = GEN3_GRIPPER) -> str:
     """The URDF text of the Gen3 7-DoF arm with the parallel gripper.
 
     Link frames: link ``i`` (1..7) is DH frame ``i-1`` turned by joint ``i``, so joint ``i`` is its z axis;
@@ -383,7 +385,7 @@ def gen3_urdf(gripper: GripperGeometry = GRIPPER) -> str:
         origins.append(dh_transform(row, -row.theta_offset) @ _rot_z(next_row.theta_offset))
     tool_origin = dh_transform(GEN3_DH[-1], -GEN3_DH[-1].theta_offset)
 
-    shapes: list[list[Shape]] = [[] for _ in GEN3_LINK_NAMES]
+    shapes: list[list[Solid]] = [[] for _ in GEN3_LINK_NAMES]
     for i, ((proximal, distal), row, radius) in enumerate(
         zip(GEN3_HOUSINGS, GEN3_DH, ACTUATOR_RADII, strict=True)
     ):
@@ -395,7 +397,7 @@ def gen3_urdf(gripper: GripperGeometry = GRIPPER) -> str:
         if distal > 0:
             shapes[i + 1].append(_axis_segment(np.eye(4), sign * proximal, row.d, radius))
         if i > 0:  # the actuator housing where the arm bends, centred on DH frame i-1 = link i+1's origin
-            shapes[i + 1].append(Shape("sphere", (radius,), np.eye(4)))
+            shapes[i + 1].append(Solid("sphere", (radius,), np.eye(4)))
     for name, mass, link_shapes in zip(GEN3_LINK_NAMES, GEN3_LINK_MASSES, shapes, strict=True):
         builder.links.append(LinkSpec(name, mass, tuple(link_shapes), rgba=(0.2, 0.2, 0.22, 1.0)))
     for spec, parent, child, origin in zip(
@@ -421,12 +423,12 @@ def gen3_urdf(gripper: GripperGeometry = GRIPPER) -> str:
     builder.joints.append(JointXml("tool_joint", "fixed", GEN3_LINK_NAMES[-1], TOOL_LINK, tool_origin))
     builder.links.append(
         LinkSpec(
-            "gripper_palm_link", gripper.palm_mass, (Shape("box", (px, py, pz), _translation(0, 0, pz / 2)),)
+            "gripper_palm_link", gripper.palm_mass, (Solid("box", (px, py, pz), _translation(0, 0, pz / 2)),)
         )
     )
     builder.joints.append(JointXml("gripper_mount_joint", "fixed", TOOL_LINK, "gripper_palm_link", np.eye(4)))
     for name, link, side in zip(FINGER_JOINTS, FINGER_LINKS, (1.0, -1.0), strict=True):
-        finger = Shape("box", (fx, fy, fz), _translation(0.0, side * fy / 2, fz / 2))
+        finger = Solid("box", (fx, fy, fz), _translation(0.0, side * fy / 2, fz / 2))
         builder.links.append(
             LinkSpec(link, gripper.finger_mass, (finger,), (0.1, 0.1, 0.1, 1.0), gripper.finger_friction)
         )
@@ -450,7 +452,7 @@ def gen3_urdf(gripper: GripperGeometry = GRIPPER) -> str:
     return builder.xml()
 
 
-def gen3_urdf_path(gripper: GripperGeometry = GRIPPER) -> Path:
+def gen3_urdf_path(gripper: GripperGeometry = GEN3_GRIPPER) -> Path:
     """Write :func:`gen3_urdf` beside the suite's other generated assets (through
     :func:`~taskcond.sim.assets.write_urdf`, named by a hash of the text, so a changed model never reuses a
     stale file) and return its absolute path."""
@@ -507,7 +509,7 @@ class KinovaArm:
         client: int,
         base_position: ArrayLike = (0.0, 0.0, 0.0),
         base_orientation: ArrayLike = (0.0, 0.0, 0.0, 1.0),
-        gripper: GripperGeometry = GRIPPER,
+        gripper: GripperGeometry = GEN3_GRIPPER,
     ) -> None:
         self.client = client
         self.gripper = gripper

@@ -20,6 +20,7 @@ from operator import itemgetter
 import numpy as np
 import pybullet as p
 
+from taskcond.conditions import GRIPPER, KINOVA_GRIPPER
 from taskcond.sim.assets import (
     AssetSpec,
     BlockSpec,
@@ -40,10 +41,6 @@ from taskcond.sim.kinova import KinovaArm
 
 PHYSICS_HZ = 240
 """Physics steps per second."""
-GRIPPER = "gripper"
-"""Name of the Franka's gripper in conditions (the single-arm name)."""
-KINOVA_GRIPPER = "kinova gripper"
-"""Name of the Kinova's gripper in conditions."""
 FramePose = tuple[tuple[float, float, float], tuple[float, float, float, float]]
 """A pose as PyBullet returns it: position (m) and quaternion (xyzw)."""
 _POSITION = itemgetter(0)

@@ -18,7 +18,7 @@ import numpy as np
 from taskcond.conditions import Predicate
 from taskcond.primitives import PRIMITIVES
 from taskcond.tasks.groundtruth import GroundTruth
-from taskcond.tasks.trajectory import Trajectory, Waypoint
+from taskcond.tasks.motion_plan import MotionPlan, Waypoint
 
 if TYPE_CHECKING:
     from taskcond.envs.kitchen import KitchenEnv
@@ -91,7 +91,7 @@ class Task:
         judge = env.truth if truth is None else truth
         return all(map(judge.holds, self._success_conditions)) and self.extra_success(env)
 
-    def plans(self, env: KitchenEnv) -> Iterator[Trajectory]:
+    def plans(self, env: KitchenEnv) -> Iterator[MotionPlan]:
         """The scripted oracle: end-effector trajectories to execute one after the other, each planned
         from the state the previous one left (a primitive task yields one, or a few when it
         reacts to what happened, as a release whose fingers stayed jammed)."""
@@ -118,7 +118,7 @@ class PrimitiveTask(Task):
         """The oracle's waypoints, planned from the current state."""
         raise NotImplementedError
 
-    def plans(self, env: KitchenEnv) -> Iterator[Trajectory]:
-        from taskcond.tasks.skills import plan
+    def plans(self, env: KitchenEnv) -> Iterator[MotionPlan]:
+        from taskcond.tasks.motions import plan
 
         yield plan(env, self.waypoints(env))

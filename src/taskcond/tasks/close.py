@@ -12,8 +12,8 @@ import numpy as np
 from taskcond.conditions import ContainerState, Predicate
 from taskcond.envs.kitchen import KitchenEnv
 from taskcond.tasks.base import PrimitiveTask
-from taskcond.tasks.skills import door_motion, drawer_motion, lid_close
-from taskcond.tasks.trajectory import Waypoint
+from taskcond.tasks.motion_plan import Waypoint
+from taskcond.tasks.motions import door_motion, drawer_motion, lid_close
 
 OBJECTS = ("top drawer", "bottom drawer", "box", "microwave")
 DOOR_START = 1.1

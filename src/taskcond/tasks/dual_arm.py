@@ -10,14 +10,14 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from taskcond.tasks.trajectory import Trajectory, Waypoint
+from taskcond.tasks.motion_plan import MotionPlan, Waypoint
 
 if TYPE_CHECKING:
     from taskcond.envs.kitchen import KitchenEnv
 
 
 @dataclass(frozen=True)
-class DualArmTrajectory:
+class DualArmMotionPlan:
     """Two end-effector trajectories of equal length and timing.
 
     Attributes:
@@ -25,8 +25,8 @@ class DualArmTrajectory:
         kinova: the Kinova's tool-centre-point trajectory, world frame.
     """
 
-    franka: Trajectory
-    kinova: Trajectory
+    franka: MotionPlan
+    kinova: MotionPlan
 
     def __post_init__(self) -> None:
         if len(self.franka) != len(self.kinova):
@@ -45,31 +45,31 @@ class DualArmTrajectory:
         return np.concatenate([self.franka.action(i), self.kinova.action(i)])
 
     @staticmethod
-    def concatenate(parts: list[DualArmTrajectory]) -> DualArmTrajectory:
+    def concatenate(parts: list[DualArmMotionPlan]) -> DualArmMotionPlan:
         """Join dual-arm trajectories end to end (times continue)."""
-        return DualArmTrajectory(
-            Trajectory.concatenate([t.franka for t in parts]),
-            Trajectory.concatenate([t.kinova for t in parts]),
+        return DualArmMotionPlan(
+            MotionPlan.concatenate([t.franka for t in parts]),
+            MotionPlan.concatenate([t.kinova for t in parts]),
         )
 
     @staticmethod
-    def hold(env: KitchenEnv, franka: Trajectory) -> DualArmTrajectory:
+    def hold(env: KitchenEnv, franka: MotionPlan) -> DualArmMotionPlan:
         """``franka`` with the Kinova holding its current tool pose and gripper state throughout."""
         assert env.kinova is not None
         position, orientation = env.kinova.ee_pose()
         n = len(franka)
-        kinova = Trajectory(
+        kinova = MotionPlan(
             franka.times.copy(),
             np.tile(position, (n, 1)),
             np.tile(orientation, (n, 1)),
             np.full(n, 1.0 if env.kinova.gripper_closed else 0.0),
         )
-        return DualArmTrajectory(franka, kinova)
+        return DualArmMotionPlan(franka, kinova)
 
     @staticmethod
     def from_waypoints(
         env: KitchenEnv, franka: list[Waypoint], kinova: list[Waypoint], durations: list[float]
-    ) -> DualArmTrajectory:
+    ) -> DualArmMotionPlan:
         """Both arms through their waypoints in lockstep, starting at their current poses: segment ``k``
         of both lasts ``durations[k]`` s (the waypoints' own durations are ignored).
 
@@ -90,10 +90,10 @@ class DualArmTrajectory:
 
         ee = env.robot.ee_pose()
         k_position, k_orientation = env.kinova.ee_pose()
-        return DualArmTrajectory(
-            Trajectory.from_waypoints(ee.position, ee.orientation, timed(franka), env.dt),
-            Trajectory.from_waypoints(k_position, k_orientation, timed(kinova), env.dt),
+        return DualArmMotionPlan(
+            MotionPlan.from_waypoints(ee.position, ee.orientation, timed(franka), env.dt),
+            MotionPlan.from_waypoints(k_position, k_orientation, timed(kinova), env.dt),
         )
 
 
-__all__ = ["DualArmTrajectory"]
+__all__ = ["DualArmMotionPlan"]

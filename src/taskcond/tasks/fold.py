@@ -24,15 +24,15 @@ from collections.abc import Iterator
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from taskcond.conditions import GripperState, Predicate, Relation, SpatialRelation
+from taskcond.conditions import KINOVA_GRIPPER, GripperState, Predicate, Relation, SpatialRelation
 from taskcond.envs.kitchen import KitchenEnv
 from taskcond.sim.cloth import ClothSpec, FoldMeasure, fold_measure
 from taskcond.sim.franka import top_down
-from taskcond.sim.scene import KINOVA_GRIPPER, SceneConfig, dual_arm_config
+from taskcond.sim.scene import SceneConfig, dual_arm_config
 from taskcond.tasks.base import PrimitiveTask
-from taskcond.tasks.dual_arm import DualArmTrajectory
-from taskcond.tasks.skills import CLOSED, GRIP_TIME, OPEN, bottom_to_com, carry, nearest_grip, plan
-from taskcond.tasks.trajectory import Trajectory, Waypoint
+from taskcond.tasks.dual_arm import DualArmMotionPlan
+from taskcond.tasks.motion_plan import MotionPlan, Waypoint
+from taskcond.tasks.motions import CLOSED, GRIP_TIME, OPEN, bottom_to_com, carry, nearest_grip, plan
 
 MIN_DOUBLE_FRACTION = 0.75
 """Fold success: fraction of half the cloth's area that must lie under two layers."""
@@ -149,11 +149,11 @@ class Fold(PrimitiveTask):
     def extra_success(self, env: KitchenEnv) -> bool:
         return folded(env)
 
-    def plans(self, env: KitchenEnv) -> Iterator[DualArmTrajectory]:  # type: ignore[override]
+    def plans(self, env: KitchenEnv) -> Iterator[DualArmMotionPlan]:  # type: ignore[override]
         yield fold_trajectory(env)
 
 
-def fold_trajectory(env: KitchenEnv) -> DualArmTrajectory:
+def fold_trajectory(env: KitchenEnv) -> DualArmMotionPlan:
     """The dual-arm fold oracle, planned from the current cloth (see the module docstring).
 
     Raises:
@@ -192,7 +192,7 @@ def fold_trajectory(env: KitchenEnv) -> DualArmTrajectory:
         ]
         arms.append(wps)
     durations = [1.6, 0.8, GRIP_TIME, *([ARC_TIME / ARC_POINTS] * ARC_POINTS), 0.6, GRIP_TIME, 0.6]
-    return DualArmTrajectory.from_waypoints(env, arms[0], arms[1], durations)
+    return DualArmMotionPlan.from_waypoints(env, arms[0], arms[1], durations)
 
 
 class GraspCloth(PrimitiveTask):
@@ -278,9 +278,9 @@ class MoveOntoCloth(PrimitiveTask):
         return carry(env, obj, goal, clearance=hi[2] + 0.05, orientation=turned)
 
 
-def held_by_kinova(env: KitchenEnv, trajectory: Trajectory) -> DualArmTrajectory:
+def held_by_kinova(env: KitchenEnv, trajectory: MotionPlan) -> DualArmMotionPlan:
     """A single-arm (Franka) trajectory as a dual-arm one, the Kinova holding still."""
-    return DualArmTrajectory.hold(env, trajectory)
+    return DualArmMotionPlan.hold(env, trajectory)
 
 
 __all__ = [

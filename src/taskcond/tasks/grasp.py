@@ -10,8 +10,8 @@ import numpy as np
 from taskcond.conditions import GripperState, Predicate
 from taskcond.envs.kitchen import KitchenEnv
 from taskcond.tasks.base import PrimitiveTask
-from taskcond.tasks.skills import pick
-from taskcond.tasks.trajectory import Waypoint
+from taskcond.tasks.motion_plan import Waypoint
+from taskcond.tasks.motions import pick
 
 LIFT = 0.03
 """Metres the grasped object's lowest point must be above the counter."""
@@ -20,7 +20,7 @@ OBJECTS = ("bottle", "bowl", "mug", "toothpaste", "spatula")
 
 class Grasp(PrimitiveTask):
     """``yaw_offset`` (rad): the oracle's grasp yaw relative to the object, replacing the object's default
-    (:func:`taskcond.tasks.skills.grasp_of`)."""
+    (:func:`taskcond.tasks.motions.grasp_of`)."""
 
     primitive_id = "grasp"
     max_steps = 300

@@ -26,6 +26,8 @@ import pybullet as p
 
 from taskcond import relations
 from taskcond.conditions import (
+    GRIPPER,
+    KINOVA_GRIPPER,
     ContainerState,
     GripperState,
     Predicate,
@@ -35,7 +37,7 @@ from taskcond.conditions import (
 from taskcond.envs.reader import Reading
 from taskcond.relations import Box
 from taskcond.sim.franka import FINGER_JOINTS
-from taskcond.sim.scene import ARTICULATED, GRIPPER, KINOVA_GRIPPER, KitchenScene
+from taskcond.sim.scene import ARTICULATED, KitchenScene
 
 CLOSED_FRACTION = 0.08
 """A container is closed when its joint is within this fraction of its range from closed."""

@@ -12,19 +12,26 @@ from collections.abc import Iterator
 
 import numpy as np
 
-from taskcond.conditions import ContainerState, GripperState, Predicate, Relation, SpatialRelation
+from taskcond.conditions import (
+    KINOVA_GRIPPER,
+    ContainerState,
+    GripperState,
+    Predicate,
+    Relation,
+    SpatialRelation,
+)
 from taskcond.envs.kitchen import KitchenEnv
-from taskcond.sim.scene import KINOVA_GRIPPER, SceneConfig, dual_arm_config
+from taskcond.sim.scene import SceneConfig, dual_arm_config
 from taskcond.tasks.base import PrimitiveTask, Task, TaskInfo
 from taskcond.tasks.close import Close
-from taskcond.tasks.dual_arm import DualArmTrajectory
+from taskcond.tasks.dual_arm import DualArmMotionPlan
 from taskcond.tasks.fold import Fold, MoveOntoCloth, folded
 from taskcond.tasks.grasp import Grasp
+from taskcond.tasks.motion_plan import MotionPlan
 from taskcond.tasks.move_into import MoveInto
 from taskcond.tasks.move_on_top import MoveOnTop
 from taskcond.tasks.open import Open
 from taskcond.tasks.release import Release
-from taskcond.tasks.trajectory import Trajectory
 
 
 class LongHorizonTask(Task):
@@ -64,7 +71,7 @@ class LongHorizonTask(Task):
     def post_conditions(self) -> tuple[Predicate, ...]:
         return self.final
 
-    def plans(self, env: KitchenEnv) -> Iterator[Trajectory]:
+    def plans(self, env: KitchenEnv) -> Iterator[MotionPlan]:
         for step in self.steps:
             yield from step.plans(env)
 
@@ -139,13 +146,13 @@ class ClothLongHorizonTask(LongHorizonTask):
             return False
         return bool(lo[2] >= np.median(bottom[:, 2]) and top[:, 2].max() > hi[2])
 
-    def plans(self, env: KitchenEnv) -> Iterator[DualArmTrajectory]:  # type: ignore[override]
+    def plans(self, env: KitchenEnv) -> Iterator[DualArmMotionPlan]:  # type: ignore[override]
         for step in self.steps:
             for trajectory in step.plans(env):
                 yield (
                     trajectory
-                    if isinstance(trajectory, DualArmTrajectory)
-                    else DualArmTrajectory.hold(env, trajectory)
+                    if isinstance(trajectory, DualArmMotionPlan)
+                    else DualArmMotionPlan.hold(env, trajectory)
                 )
 
 

@@ -14,8 +14,8 @@ import pybullet as p
 from taskcond.conditions import GripperState, Predicate
 from taskcond.envs.kitchen import KitchenEnv
 from taskcond.tasks.base import PrimitiveTask
-from taskcond.tasks.skills import CLOSED, current, grasp_of
-from taskcond.tasks.trajectory import Waypoint
+from taskcond.tasks.motion_plan import Waypoint
+from taskcond.tasks.motions import CLOSED, current, grasp_of
 
 OBJECTS = ("bottle", "bowl", "mug")
 TOLERANCE = 0.03

@@ -16,8 +16,8 @@ from taskcond.conditions import Predicate, Relation, SpatialRelation
 from taskcond.envs.kitchen import KitchenEnv
 from taskcond.sim.franka import top_down
 from taskcond.tasks.base import PrimitiveTask
-from taskcond.tasks.skills import bottom_to_com, carry, current, grasp_of, nearest_grip
-from taskcond.tasks.trajectory import Waypoint
+from taskcond.tasks.motion_plan import Waypoint
+from taskcond.tasks.motions import bottom_to_com, carry, current, grasp_of, nearest_grip
 
 PAIRS = (
     ("bottle", "box"),

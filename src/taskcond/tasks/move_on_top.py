@@ -11,8 +11,8 @@ import numpy as np
 from taskcond.conditions import Predicate, Relation, SpatialRelation
 from taskcond.envs.kitchen import KitchenEnv
 from taskcond.tasks.base import PrimitiveTask
-from taskcond.tasks.skills import bottom_to_com, carry, grasp_of
-from taskcond.tasks.trajectory import Waypoint
+from taskcond.tasks.motion_plan import Waypoint
+from taskcond.tasks.motions import bottom_to_com, carry, grasp_of
 
 PAIRS = (("bottle", "box"), ("bowl", "box"), ("toothpaste", "box"), ("spatula", "box"), ("mug", "table"))
 GAP = 0.03

@@ -9,8 +9,8 @@ from __future__ import annotations
 from taskcond.conditions import ContainerState, Predicate
 from taskcond.envs.kitchen import KitchenEnv
 from taskcond.tasks.base import PrimitiveTask
-from taskcond.tasks.skills import door_motion, drawer_motion, lid_open
-from taskcond.tasks.trajectory import Waypoint
+from taskcond.tasks.motion_plan import Waypoint
+from taskcond.tasks.motions import door_motion, drawer_motion, lid_open
 
 OBJECTS = ("top drawer", "bottom drawer", "box", "microwave")
 DOOR_OPEN = 1.25

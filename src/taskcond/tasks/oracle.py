@@ -11,8 +11,8 @@ from pathlib import Path
 
 from taskcond.envs.kitchen import KitchenEnv
 from taskcond.sim.recording import VideoRecorder
+from taskcond.tasks.motion_plan import MotionPlan
 from taskcond.tasks.registry import make
-from taskcond.tasks.trajectory import Trajectory
 
 SETTLE_STEPS = 10
 """Control steps the last action is held after the oracle's trajectories, before success is judged."""
@@ -40,25 +40,25 @@ class OracleReport:
     steps_per_second: float
     failures: dict[str, int] = field(default_factory=dict)
     failed_seeds: list[int] = field(default_factory=list)
-    trajectories: list[Trajectory] = field(default_factory=list, repr=False)
+    trajectories: list[MotionPlan] = field(default_factory=list, repr=False)
 
     @property
     def success_rate(self) -> float:
         return self.successes / self.episodes if self.episodes else 0.0
 
 
-def _concatenate(parts: list) -> Trajectory:
-    """Join executed trajectories of one kind (single-arm :class:`Trajectory` or dual-arm
-    :class:`~taskcond.tasks.dual_arm.DualArmTrajectory`)."""
-    return type(parts[0]).concatenate(parts) if parts else Trajectory.concatenate(parts)
+def _concatenate(parts: list) -> MotionPlan:
+    """Join executed trajectories of one kind (single-arm :class:`MotionPlan` or dual-arm
+    :class:`~taskcond.tasks.dual_arm.DualArmMotionPlan`)."""
+    return type(parts[0]).concatenate(parts) if parts else MotionPlan.concatenate(parts)
 
 
 def run_episode(
     env: KitchenEnv, seed: int, recorder: VideoRecorder | None = None
-) -> tuple[bool, str | None, Trajectory, int]:
+) -> tuple[bool, str | None, MotionPlan, int]:
     """Reset with ``seed`` and execute the task's oracle; returns (success, failure reason, executed
     trajectory, control steps). Dual-arm tasks return a
-    :class:`~taskcond.tasks.dual_arm.DualArmTrajectory` as the executed trajectory."""
+    :class:`~taskcond.tasks.dual_arm.DualArmMotionPlan` as the executed trajectory."""
     env.reset(seed=seed)
     executed: list = []
     steps = 0

@@ -13,8 +13,8 @@ import numpy as np
 from taskcond.conditions import GripperState, Predicate
 from taskcond.envs.kitchen import KitchenEnv
 from taskcond.tasks.base import PrimitiveTask
-from taskcond.tasks.skills import grasp_of, release_plans
-from taskcond.tasks.trajectory import Trajectory
+from taskcond.tasks.motion_plan import MotionPlan
+from taskcond.tasks.motions import grasp_of, release_plans
 
 OBJECTS = ("bottle", "bowl", "mug", "toothpaste", "spatula")
 
@@ -32,5 +32,5 @@ class Release(PrimitiveTask):
     def extra_success(self, env: KitchenEnv) -> bool:
         return bool(env.scene.aabb(self.objects[0])[0][2] <= 0.02)
 
-    def plans(self, env: KitchenEnv) -> Iterator[Trajectory]:
+    def plans(self, env: KitchenEnv) -> Iterator[MotionPlan]:
         yield from release_plans(env)

@@ -14,8 +14,8 @@ from scipy.spatial.transform import Rotation
 from taskcond.conditions import GripperState, Predicate
 from taskcond.envs.kitchen import KitchenEnv
 from taskcond.tasks.base import PrimitiveTask
-from taskcond.tasks.skills import CLOSED, current, grasp_of
-from taskcond.tasks.trajectory import Waypoint
+from taskcond.tasks.motion_plan import Waypoint
+from taskcond.tasks.motions import CLOSED, current, grasp_of
 
 OBJECTS = ("bottle", "mug")
 MIN_TILT = 1.0

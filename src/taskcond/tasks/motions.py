@@ -2,7 +2,7 @@
 waypoint sequences for picking, carrying, handle pulling and lid pushing.
 
 Every function reads the current simulator state (ground truth) and returns waypoints in the world frame
-(metres, xyzw quaternions) that :func:`plan` turns into a :class:`Trajectory` starting at the current
+(metres, xyzw quaternions) that :func:`plan` turns into a :class:`MotionPlan` starting at the current
 end-effector pose.
 """
 
@@ -19,7 +19,7 @@ from scipy.spatial.transform import Rotation
 from taskcond.sim.assets import BoxSpec, CabinetSpec, MicrowaveSpec, VesselSpec, to_world
 from taskcond.sim.franka import forward, top_down
 from taskcond.sim.scene import KitchenScene
-from taskcond.tasks.trajectory import Trajectory, Waypoint
+from taskcond.tasks.motion_plan import MotionPlan, Waypoint
 
 if TYPE_CHECKING:
     from taskcond.envs.kitchen import KitchenEnv
@@ -94,10 +94,10 @@ def grasp_of(scene: KitchenScene, name: str) -> GraspPose:
     return vessel_grasp(spec) if isinstance(spec, VesselSpec) else GRASPS[name]
 
 
-def plan(env: KitchenEnv, waypoints: list[Waypoint]) -> Trajectory:
-    """Trajectory from the current end-effector pose (and gripper state) through ``waypoints``."""
+def plan(env: KitchenEnv, waypoints: list[Waypoint]) -> MotionPlan:
+    """MotionPlan from the current end-effector pose (and gripper state) through ``waypoints``."""
     ee = env.robot.ee_pose()
-    return Trajectory.from_waypoints(ee.position, ee.orientation, waypoints, env.dt)
+    return MotionPlan.from_waypoints(ee.position, ee.orientation, waypoints, env.dt)
 
 
 def current(env: KitchenEnv) -> tuple[np.ndarray, np.ndarray, float]:
@@ -173,7 +173,7 @@ REGRIPS = 2
 """Times :func:`release_plans` grips again and reopens jammed fingers before it rises anyway."""
 
 
-def release_plans(env: KitchenEnv, rise: float = 0.10) -> Iterator[Trajectory]:
+def release_plans(env: KitchenEnv, rise: float = 0.10) -> Iterator[MotionPlan]:
     """Open the fingers where the hand is; while they stay jammed on the object (opening below
     :data:`FREED_WIDTH`, at most :data:`REGRIPS` times) close them again, which presses the object's wall
     flat between the pads, and reopen; then move up by ``rise`` m. (A vessel turning in the opening hand

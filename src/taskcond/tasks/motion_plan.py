@@ -1,5 +1,6 @@
-"""End-effector trajectories of the scripted oracles: the demonstrations a DMP is later fitted to (paper
-§III-E). A trajectory is sampled at the environment's control rate.
+"""Motion plans of the scripted oracles: end-effector trajectories, the demonstrations a DMP is later
+fitted to (paper §III-E). A motion plan is sampled at the environment's control rate. (A DMP's own
+rollout is :class:`taskcond.dmp.Trajectory`.)
 """
 
 from __future__ import annotations
@@ -26,8 +27,8 @@ class Waypoint:
 
 
 @dataclass(frozen=True)
-class Trajectory:
-    """An end-effector trajectory.
+class MotionPlan:
+    """An oracle's end-effector trajectory.
 
     Attributes:
         times: (n,) seconds from the start.
@@ -49,13 +50,13 @@ class Trajectory:
         return np.concatenate([self.positions[i], self.orientations[i], [self.gripper[i]]])
 
     @staticmethod
-    def concatenate(parts: list[Trajectory]) -> Trajectory:
+    def concatenate(parts: list[MotionPlan]) -> MotionPlan:
         """Join trajectories end to end (times continue)."""
         times, offset = [], 0.0
         for part in parts:
             times.append(part.times + offset)
             offset += part.times[-1] + (part.times[1] - part.times[0] if len(part) > 1 else 0.0)
-        return Trajectory(
+        return MotionPlan(
             np.concatenate(times),
             np.concatenate([t.positions for t in parts]),
             np.concatenate([t.orientations for t in parts]),
@@ -65,7 +66,7 @@ class Trajectory:
     @staticmethod
     def from_waypoints(
         start: np.ndarray, start_orientation: np.ndarray, waypoints: list[Waypoint], dt: float
-    ) -> Trajectory:
+    ) -> MotionPlan:
         """Sample straight-line, smooth-step-timed segments through ``waypoints`` every ``dt`` s, starting at
         ``start`` (3,) / ``start_orientation`` (4,); orientations are slerped."""
         pos, orn = np.asarray(start, float), np.asarray(start_orientation, float)
@@ -84,4 +85,4 @@ class Trajectory:
             gs.append(np.full(n, wp.gripper))
             pos, orn = goal, goal_q
         positions = np.concatenate(ps)
-        return Trajectory(np.arange(len(positions)) * dt, positions, np.concatenate(qs), np.concatenate(gs))
+        return MotionPlan(np.arange(len(positions)) * dt, positions, np.concatenate(qs), np.concatenate(gs))
