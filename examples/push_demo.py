@@ -15,8 +15,8 @@ import sys
 from pathlib import Path
 
 import numpy as np
-from taskcond.tasks.env import KitchenEnv
 
+from taskcond.envs.kitchen import KitchenEnv
 from taskcond.execution.demofile import RecordedTrajectory
 from taskcond.execution.kitchen import FreeTask
 from taskcond.primitives import load_primitives

@@ -650,6 +650,10 @@ def run(
         plan = plan_run(spec, decomposer)
     except (DecompositionError, LLMError, ValueError) as exc:
         fail(str(exc))
+    if plan.task_id is None and not plan.decomposed:  # one primitive task the suite does not have
+        refused = refused_task(spec, *scene_objects(plan.scene))
+        if refused is not None:
+            fail(f"{refused}; nothing was run")
     if start != "task" and plan.task_id is not None:
         fail(f"--start {start}: only a free instruction has one; {plan.task_id} starts from its own state")
     typer.echo(f"task: {plan.label}" + (" (decomposed by the LLM)" if plan.decomposed else ""))

@@ -314,5 +314,5 @@ def test_an_instruction_whose_roles_are_impossible_is_one_line_and_nothing_runs(
     monkeypatch.chdir(tmp_path)
     res = CliRunner().invoke(app, ["run", "Put the box into the bottle."])
     assert res.exit_code == 2, res.output
-    assert res.stderr.startswith("error: cannot 'move box into bottle': 'box' cannot be picked up")
+    assert res.stderr.startswith("error: cannot 'move box into bottle': 'box' cannot be moved")
     assert res.stderr.count("\n") == 1 and not (tmp_path / "runs").exists()
