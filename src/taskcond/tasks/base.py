@@ -80,8 +80,9 @@ class Task:
         """:meth:`post_conditions`, built once (:meth:`success` runs at every control step)."""
         return self.post_conditions()
 
-    def extra_success(self, env: KitchenEnv) -> bool:
-        """Success criteria outside the vocabulary (lifted, tilted, at the target)."""
+    def extra_success(self, env: KitchenEnv, judge: GroundTruth) -> bool:
+        """Success criteria outside the vocabulary (lifted, tilted, at the target), asked of ``judge``, the
+        judge of :meth:`success` (bound to the step's reading when the step judges)."""
         return True
 
     def success(self, env: KitchenEnv, truth: GroundTruth | None = None) -> bool:
@@ -89,7 +90,7 @@ class Task:
         reads the simulator now; :meth:`KitchenEnv.step <taskcond.envs.kitchen.KitchenEnv.step>` passes one
         bound to the step's reading) and :meth:`extra_success`."""
         judge = env.truth if truth is None else truth
-        return all(map(judge.holds, self._success_conditions)) and self.extra_success(env)
+        return all(map(judge.holds, self._success_conditions)) and self.extra_success(env, judge)
 
     def plans(self, env: KitchenEnv) -> Iterator[MotionPlan]:
         """The scripted oracle: end-effector trajectories to execute one after the other, each planned

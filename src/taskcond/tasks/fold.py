@@ -31,6 +31,7 @@ from taskcond.sim.franka import top_down
 from taskcond.sim.scene import SceneConfig, dual_arm_config
 from taskcond.tasks.base import PrimitiveTask
 from taskcond.tasks.dual_arm import DualArmMotionPlan
+from taskcond.tasks.groundtruth import GroundTruth
 from taskcond.tasks.motion_plan import MotionPlan, Waypoint
 from taskcond.tasks.motions import CLOSED, GRIP_TIME, OPEN, bottom_to_com, carry, nearest_grip, plan
 
@@ -146,7 +147,7 @@ class Fold(PrimitiveTask):
     def post_conditions(self) -> tuple[Predicate, ...]:
         return (GripperState(None), GripperState(None, KINOVA_GRIPPER))
 
-    def extra_success(self, env: KitchenEnv) -> bool:
+    def extra_success(self, env: KitchenEnv, judge: GroundTruth) -> bool:
         return folded(env)
 
     def plans(self, env: KitchenEnv) -> Iterator[DualArmMotionPlan]:  # type: ignore[override]
@@ -214,7 +215,7 @@ class GraspCloth(PrimitiveTask):
     def post_conditions(self) -> tuple[Predicate, ...]:
         return (GripperState("cloth"),)
 
-    def extra_success(self, env: KitchenEnv) -> bool:
+    def extra_success(self, env: KitchenEnv, judge: GroundTruth) -> bool:
         return env.scene.cloth is not None and float(env.scene.cloth_nodes()[:, 2].max()) >= CLOTH_LIFT
 
     def waypoints(self, env: KitchenEnv) -> list[Waypoint]:
@@ -260,8 +261,8 @@ class MoveOntoCloth(PrimitiveTask):
     def post_conditions(self) -> tuple[Predicate, ...]:
         return (SpatialRelation(self.objects[0], Relation.ABOVE, "cloth"),)
 
-    def extra_success(self, env: KitchenEnv) -> bool:
-        return env.truth.height_over(self.objects[0], "cloth") <= 0.03
+    def extra_success(self, env: KitchenEnv, judge: GroundTruth) -> bool:
+        return judge.height_over(self.objects[0], "cloth") <= 0.03
 
     def waypoints(self, env: KitchenEnv) -> list[Waypoint]:
         spec = _require_cloth(env, "move onto cloth")

@@ -10,6 +10,7 @@ import numpy as np
 from taskcond.conditions import GripperState, Predicate
 from taskcond.envs.kitchen import KitchenEnv
 from taskcond.tasks.base import PrimitiveTask
+from taskcond.tasks.groundtruth import GroundTruth
 from taskcond.tasks.motion_plan import Waypoint
 from taskcond.tasks.motions import pick
 
@@ -32,7 +33,7 @@ class Grasp(PrimitiveTask):
     def post_conditions(self) -> tuple[Predicate, ...]:
         return (GripperState(self.objects[0]),)
 
-    def extra_success(self, env: KitchenEnv) -> bool:
+    def extra_success(self, env: KitchenEnv, judge: GroundTruth) -> bool:
         return bool(env.scene.aabb(self.objects[0])[0][2] >= LIFT)
 
     def setup(self, env: KitchenEnv, rng: np.random.Generator) -> None:

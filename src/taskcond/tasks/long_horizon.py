@@ -27,6 +27,7 @@ from taskcond.tasks.close import Close
 from taskcond.tasks.dual_arm import DualArmMotionPlan
 from taskcond.tasks.fold import Fold, MoveOntoCloth, folded
 from taskcond.tasks.grasp import Grasp
+from taskcond.tasks.groundtruth import GroundTruth
 from taskcond.tasks.motion_plan import MotionPlan
 from taskcond.tasks.move_into import MoveInto
 from taskcond.tasks.move_on_top import MoveOnTop
@@ -128,7 +129,7 @@ class ClothLongHorizonTask(LongHorizonTask):
     def scene_config(self, config: SceneConfig | None) -> SceneConfig | None:
         return dual_arm_config(config)
 
-    def extra_success(self, env: KitchenEnv) -> bool:
+    def extra_success(self, env: KitchenEnv, judge: GroundTruth) -> bool:
         spec = env.scene.config.cloth
         if env.scene.cloth is None or spec is None or not folded(env, horizontal=True):
             return False

@@ -14,6 +14,7 @@ import pybullet as p
 from taskcond.conditions import GripperState, Predicate
 from taskcond.envs.kitchen import KitchenEnv
 from taskcond.tasks.base import PrimitiveTask
+from taskcond.tasks.groundtruth import GroundTruth
 from taskcond.tasks.motion_plan import Waypoint
 from taskcond.tasks.motions import CLOSED, current, grasp_of
 
@@ -59,8 +60,8 @@ class Move(PrimitiveTask):
     def post_conditions(self) -> tuple[Predicate, ...]:
         return (GripperState(self.objects[0]),)
 
-    def extra_success(self, env: KitchenEnv) -> bool:
-        return bool(np.linalg.norm(env.truth.com(self.objects[0]) - env.target) <= TOLERANCE)
+    def extra_success(self, env: KitchenEnv, judge: GroundTruth) -> bool:
+        return bool(np.linalg.norm(judge.com(self.objects[0]) - env.target) <= TOLERANCE)
 
     def waypoints(self, env: KitchenEnv) -> list[Waypoint]:
         pos, orn, _ = current(env)

@@ -11,6 +11,7 @@ import numpy as np
 from taskcond.conditions import Predicate, Relation, SpatialRelation
 from taskcond.envs.kitchen import KitchenEnv
 from taskcond.tasks.base import PrimitiveTask
+from taskcond.tasks.groundtruth import GroundTruth
 from taskcond.tasks.motion_plan import Waypoint
 from taskcond.tasks.motions import bottom_to_com, carry, grasp_of
 
@@ -30,8 +31,8 @@ class MoveOnTop(PrimitiveTask):
     def post_conditions(self) -> tuple[Predicate, ...]:
         return (SpatialRelation(self.objects[0], Relation.ABOVE, self.objects[1]),)
 
-    def extra_success(self, env: KitchenEnv) -> bool:
-        return env.truth.height_over(*self.objects) <= GAP
+    def extra_success(self, env: KitchenEnv, judge: GroundTruth) -> bool:
+        return judge.height_over(*self.objects) <= GAP
 
     def waypoints(self, env: KitchenEnv) -> list[Waypoint]:
         a, b = self.objects

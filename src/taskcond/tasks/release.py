@@ -13,6 +13,7 @@ import numpy as np
 from taskcond.conditions import GripperState, Predicate
 from taskcond.envs.kitchen import KitchenEnv
 from taskcond.tasks.base import PrimitiveTask
+from taskcond.tasks.groundtruth import GroundTruth
 from taskcond.tasks.motion_plan import MotionPlan
 from taskcond.tasks.motions import grasp_of, release_plans
 
@@ -29,7 +30,7 @@ class Release(PrimitiveTask):
     def post_conditions(self) -> tuple[Predicate, ...]:
         return (GripperState(None),)
 
-    def extra_success(self, env: KitchenEnv) -> bool:
+    def extra_success(self, env: KitchenEnv, judge: GroundTruth) -> bool:
         return bool(env.scene.aabb(self.objects[0])[0][2] <= 0.02)
 
     def plans(self, env: KitchenEnv) -> Iterator[MotionPlan]:
