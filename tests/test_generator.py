@@ -196,10 +196,13 @@ def test_embedded_constrained_answers_are_always_valid(embedded_backend, pid):
 
 @pytest.mark.llm
 def test_embedded_free_answer_falls_back_to_the_grammar(embedded_backend):
-    """With the default fallback, every primitive gets a valid condition within one constrained retry (the
-    two chain-of-thought chats of v5; the code form of v6 in test_code_form.py)."""
+    """With the default fallback, a left-out primitive gets a valid condition within one constrained retry
+    (the two chain-of-thought chats of v5; the code form of v6 in test_code_form.py). Four primitives that
+    the constrained test below leaves out, changing a grasp, a container, the cloth and a placement, keep
+    the test short."""
     gen = ConditionGenerator(embedded_backend, max_retries=1, prompt_version="v5")
-    for pid, prim in PRIMITIVES.items():
+    for pid in ("grasp", "open", "fold", "move_in_front"):
+        prim = PRIMITIVES[pid]
         result = gen.generate(prim.task_name(*["cup", "lunch box"][: prim.n_objects]), exclude=[pid])
         assert result.attempts in (2, 3, 4)
         for transcript in result.transcripts:
