@@ -1,5 +1,5 @@
-"""The image-based imitation-learning baseline of the paper's Tables III and IV (§V, "the image-based imitation
-learning baseline"): behaviour cloning of the suite's oracles from camera images and proprioception.
+"""The image-based imitation-learning baseline of the paper's Tables III and IV (§V): behaviour cloning of
+the suite's oracles from camera images and proprioception.
 
 - :mod:`taskcond.il.dataset`: oracle demonstrations rendered as (image, proprioception, action chunk)
   samples (needs the ``[sim]`` extra, not the deep-learning library);

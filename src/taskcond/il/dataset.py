@@ -153,7 +153,10 @@ class Samples:
             for n, ls in part.lengths.items():
                 lengths[n] += ls
         return cls(
-            *(np.concatenate([getattr(p, k) for p in parts]) for k in ("image", "state", "progress", "actions")),
+            *(
+                np.concatenate([getattr(p, k) for p in parts])
+                for k in ("image", "state", "progress", "actions")
+            ),
             np.concatenate([p.arms for p in parts]),
             np.concatenate([np.array([index[p.names[t]] for t in p.task], np.int32) for p in parts]),
             names,
@@ -332,8 +335,8 @@ __all__ = [
     "CAMERA",
     "CHUNK",
     "IMAGE_SIZE",
-    "DataSpec",
     "STATE_DIM",
+    "DataSpec",
     "Samples",
     "canonical",
     "collect",

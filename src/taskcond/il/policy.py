@@ -21,14 +21,7 @@ import jax.numpy as jnp
 import numpy as np
 import optax
 
-
-@dataclass(frozen=True)
-class NetSpec:
-    """Sizes of the network (all of it is in the checkpoint's key)."""
-
-    channels: tuple[int, ...] = (16, 32, 32)
-    embedding: int = 32
-    hidden: int = 256
+from taskcond.il.config import NetSpec
 
 
 @dataclass(frozen=True)
@@ -139,7 +132,6 @@ def decode(out: np.ndarray, state: np.ndarray, norm: Normalizer) -> np.ndarray:
 
 
 __all__ = [
-    "NetSpec",
     "Normalizer",
     "Policy",
     "decode",

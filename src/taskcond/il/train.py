@@ -26,34 +26,12 @@ import jax.numpy as jnp
 import numpy as np
 import optax
 
+from taskcond.il.config import NetSpec, TrainSpec
 from taskcond.il.dataset import ACTION_DIM, CHUNK, STATE_DIM, DataSpec, Samples
-from taskcond.il.policy import NetSpec, Normalizer, Policy, decode, loss_terms, normalize_targets, to_input
+from taskcond.il.policy import Normalizer, Policy, decode, loss_terms, normalize_targets, to_input
 
 LOG_EVERY = 50
 """Training steps per point of the loss history."""
-
-
-@dataclass(frozen=True)
-class TrainSpec:
-    """Training hyper-parameters (all of them are in the checkpoint's key).
-
-    Attributes:
-        steps: optimizer steps.
-        batch: samples per step.
-        learning_rate: peak learning rate (cosine decay to 1% of it, 100 warm-up steps).
-        weight_decay: AdamW's decoupled weight decay.
-        shift: maximal random image shift in pixels.
-        seed: seed of the initialization, the batches and the shifts.
-        net: the network's sizes.
-    """
-
-    steps: int = 8000
-    batch: int = 32
-    learning_rate: float = 1e-3
-    weight_decay: float = 1e-4
-    shift: int = 4
-    seed: int = 0
-    net: NetSpec = field(default_factory=NetSpec)
 
 
 class PolicyError(RuntimeError):
@@ -63,6 +41,7 @@ class PolicyError(RuntimeError):
 def normalizer(samples: Samples) -> Normalizer:
     """Means and standard deviations of the samples' state and position offsets (the Kinova's from the
     two-arm samples only; a constant dimension gets deviation 1)."""
+
     def stats(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         if len(x) == 0:
             return np.zeros(x.shape[1], np.float32), np.ones(x.shape[1], np.float32)
@@ -72,7 +51,9 @@ def normalizer(samples: Samples) -> Normalizer:
     s_mean, s_std = stats(samples.state)
     franka = stats(samples.actions[..., 0:3].reshape(-1, 3))
     kinova = stats(samples.actions[samples.arms == 2][..., 8:11].reshape(-1, 3))
-    return Normalizer(s_mean, s_std, np.concatenate([franka[0], kinova[0]]), np.concatenate([franka[1], kinova[1]]))
+    return Normalizer(
+        s_mean, s_std, np.concatenate([franka[0], kinova[0]]), np.concatenate([franka[1], kinova[1]])
+    )
 
 
 def _shift(images: jax.Array, key: jax.Array, pad: int) -> jax.Array:
@@ -195,7 +176,9 @@ class TrainedPolicy:
             PolicyError: the policy was not trained on ``name``.
         """
         if name not in self.names:
-            raise PolicyError(f"the image-il policy was not trained on {name!r}; it knows: {', '.join(self.names)}")
+            raise PolicyError(
+                f"the image-il policy was not trained on {name!r}; it knows: {', '.join(self.names)}"
+            )
         if self._forward is None:
             self._forward = eqx.filter_jit(lambda m, *a: m(*a))
         x = to_input(image)
@@ -226,13 +209,19 @@ class TrainedPolicy:
         """
         try:
             meta = json.loads((directory / "policy.json").read_text(encoding="utf-8"))
-            net = NetSpec(**{k: tuple(v) if isinstance(v, list) else v for k, v in meta["train"]["net"].items()})
+            net = NetSpec(
+                **{k: tuple(v) if isinstance(v, list) else v for k, v in meta["train"]["net"].items()}
+            )
             skeleton = Policy(net, len(meta["names"]), STATE_DIM, CHUNK, ACTION_DIM, jax.random.PRNGKey(0))
             model = eqx.tree_deserialise_leaves(directory / "model.eqx", skeleton)
         except (OSError, KeyError, ValueError, TypeError) as exc:
-            raise PolicyError(f"no image-il checkpoint in {directory} ({exc}); run `taskcond learn --method image-il`") from None
+            raise PolicyError(
+                f"no image-il checkpoint in {directory} ({exc}); run `taskcond learn --method image-il`"
+            ) from None
         rest = {k: v for k, v in meta.items() if k not in ("names", "norm", "lengths", "arms")}
-        return cls(model, Normalizer.from_dict(meta["norm"]), meta["names"], meta["lengths"], meta["arms"], rest)
+        return cls(
+            model, Normalizer.from_dict(meta["norm"]), meta["names"], meta["lengths"], meta["arms"], rest
+        )
 
 
 def learn_policy(
@@ -249,4 +238,4 @@ def learn_policy(
     return policy, history
 
 
-__all__ = ["LOG_EVERY", "PolicyError", "TrainSpec", "TrainedPolicy", "learn_policy", "normalizer", "train"]
+__all__ = ["LOG_EVERY", "PolicyError", "TrainedPolicy", "learn_policy", "normalizer", "train"]
