@@ -72,10 +72,11 @@ def train(
     samples: Samples,
     spec: TrainSpec,
     progress: Callable[[int, float], None] | None = None,
+    log_every: int = LOG_EVERY,
 ) -> tuple[TrainedPolicy, dict[str, Any]]:
     """Fit a :class:`~taskcond.il.policy.Policy` to ``samples``; ``progress`` is told the step and the mean
-    loss of the last :data:`LOG_EVERY` steps. Returns the trained policy and the history (loss terms every
-    :data:`LOG_EVERY` steps, seconds)."""
+    loss of the last ``log_every`` steps. Returns the trained policy and the history (loss terms every
+    ``log_every`` steps, seconds)."""
     norm = normalizer(samples)
     key = jax.random.PRNGKey(spec.seed)
     key, init = jax.random.split(key)
@@ -118,7 +119,7 @@ def train(
             sub,
         )
         window.append((value, terms))
-        if k % LOG_EVERY == 0 or k == spec.steps:
+        if k % log_every == 0 or k == spec.steps:
             values = jax.device_get(window)
             history["step"].append(k)
             history["loss"].append(float(np.mean([v for v, _ in values])))
