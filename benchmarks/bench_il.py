@@ -87,12 +87,12 @@ def plot(history: dict, path: Path) -> None:
     import matplotlib.pyplot as plt
 
     fig, ax = plt.subplots(figsize=(7, 4))
-    for key, style in (("loss", "k-"), ("offset", "C0-"), ("quaternion", "C1-"), ("gripper", "C2-")):
+    for key, style in (("loss", "k-"), ("position", "C0-"), ("quaternion", "C1-"), ("gripper", "C2-")):
         ax.plot(history["step"], history[key], style, lw=1.2, label=key if key != "loss" else "total")
     ax.set_yscale("log")
     ax.set_xlabel("training step")
     ax.set_ylabel("training loss (mean over the last log interval)")
-    ax.set_title("image-il: behaviour cloning loss (offsets: normalized MSE; gripper: BCE)", fontsize=9)
+    ax.set_title("image-il: behaviour cloning loss (positions: normalized MSE; gripper: BCE)", fontsize=9)
     ax.legend(fontsize=8)
     ax.grid(alpha=0.3)
     fig.tight_layout()

@@ -41,6 +41,9 @@ class TrainSpec:
             cosine decay to 1% of it).
         weight_decay: AdamW's decoupled weight decay.
         shift: maximal random image shift in pixels.
+        state_noise: standard deviation of the Gaussian noise added to the normalized state input (keeps
+            the policy from copying the demonstrations' proprioception alone).
+        absolute: the network predicts world positions (True) or offsets from the end effector.
         seed: seed of the initialization, the batches and the shifts.
         net: the network's sizes.
     """
@@ -50,6 +53,8 @@ class TrainSpec:
     learning_rate: float = 1e-3
     weight_decay: float = 1e-4
     shift: int = 4
+    state_noise: float = 0.1
+    absolute: bool = True
     seed: int = 0
     net: NetSpec = field(default_factory=NetSpec)
 

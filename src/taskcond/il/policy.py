@@ -2,8 +2,9 @@
 task name (an embedding), in Equinox on JAX. It knows arrays, not the simulator nor the tasks' wording.
 
 Inputs of one sample (layout in :mod:`taskcond.il.dataset`): ``image`` (H, W, 4) uint8 RGB-D, ``state``
-(S,) float32, ``progress`` float32, ``task`` int32. Output: an action chunk (K, 16): per arm a position
-offset from the end effector (3, m), a quaternion (4, xyzw, not normalized) and the gripper's logit (1).
+(S,) float32, ``progress`` float32, ``task`` int32. Output: an action chunk (K, 16): per arm the normalized
+position target (3; world frame, or relative to the end effector, :attr:`Normalizer.absolute`), a
+quaternion (4, xyzw, not normalized) and the gripper's logit (1).
 
 Architecture: a convolutional encoder (5×5 stride 2, 3×3 stride 2, 3×3: 16, 32, 32 channels) whose last
 feature maps give 32 spatial-softmax keypoints (expected image coordinates, as in Levine et al. 2016,
@@ -14,6 +15,7 @@ the progress and a 32-dimensional task embedding, a 256-256 MLP predicts the chu
 from __future__ import annotations
 
 from dataclasses import asdict, dataclass
+from typing import Any
 
 import equinox as eqx
 import jax
@@ -26,20 +28,31 @@ from taskcond.il.config import NetSpec
 
 @dataclass(frozen=True)
 class Normalizer:
-    """Per-dimension mean and standard deviation (numpy arrays) of the state and of the chunk's position
-    offsets, from the training samples."""
+    """Per-dimension mean and standard deviation (numpy arrays) of the state (S,) and of the chunk's
+    position targets (6,: Franka xyz, Kinova xyz), from the training samples. ``absolute``: the targets
+    are world positions (m); else offsets from the arm's end effector at the sample (m)."""
 
     state_mean: np.ndarray
     state_std: np.ndarray
-    offset_mean: np.ndarray
-    offset_std: np.ndarray
+    position_mean: np.ndarray
+    position_std: np.ndarray
+    absolute: bool = True
 
-    def to_dict(self) -> dict[str, list[float]]:
-        return {k: np.asarray(v).tolist() for k, v in asdict(self).items()}
+    def to_dict(self) -> dict[str, Any]:
+        return {k: v if isinstance(v, bool) else np.asarray(v).tolist() for k, v in asdict(self).items()}
 
     @classmethod
-    def from_dict(cls, data: dict[str, list[float]]) -> Normalizer:
-        return cls(**{k: np.asarray(v, np.float32) for k, v in data.items()})
+    def from_dict(cls, data: dict[str, Any]) -> Normalizer:
+        return cls(**{k: v if isinstance(v, bool) else np.asarray(v, np.float32) for k, v in data.items()})
+
+    def targets(self, actions: np.ndarray, state: np.ndarray) -> np.ndarray:
+        """Position targets (..., K, 2, 3) of chunks (..., K, 16) laid out as :mod:`taskcond.il.dataset`
+        does (offsets from the arms in ``state`` (..., S)), world positions when :attr:`absolute`."""
+        rel = np.asarray(actions, np.float32).reshape(*actions.shape[:-1], 2, 8)[..., :3]
+        if not self.absolute:
+            return rel
+        arms = np.stack([state[..., 0:3], state[..., 8:11]], axis=-2)  # (..., 2, 3)
+        return rel + arms[..., None, :, :]
 
 
 def spatial_softmax(features: jax.Array) -> jax.Array:
@@ -77,7 +90,7 @@ class Policy(eqx.Module):
 
     def __call__(self, image: jax.Array, state: jax.Array, progress: jax.Array, task: jax.Array) -> jax.Array:
         """``image`` (4, H, W) float in [0, 1], ``state`` (S,) normalized, ``progress`` (), ``task`` () int →
-        (K, A) raw outputs (normalized offsets, quaternions, gripper logits)."""
+        (K, A) raw outputs (normalized positions, quaternions, gripper logits)."""
         x = image
         for conv in self.convs:
             x = jax.nn.relu(conv(x))
@@ -92,40 +105,42 @@ def to_input(images: np.ndarray | jax.Array) -> jax.Array:
     return jnp.moveaxis(jnp.asarray(images, jnp.float32) / 255.0, -1, -3)
 
 
-def normalize_targets(actions: np.ndarray, norm: Normalizer) -> np.ndarray:
-    """Target chunks (..., K, 16) with the position offsets normalized by ``norm``: what the network
-    outputs for them."""
+def normalize_targets(actions: np.ndarray, state: np.ndarray, norm: Normalizer) -> np.ndarray:
+    """Target chunks (..., K, 16) of samples with states (..., S), their positions as ``norm`` makes
+    them: what the network outputs for them."""
     out = np.array(actions, np.float32).reshape(*actions.shape[:-1], 2, 8)
-    out[..., :3] = (out[..., :3] - norm.offset_mean.reshape(2, 3)) / norm.offset_std.reshape(2, 3)
+    position = norm.targets(actions, state)
+    out[..., :3] = (position - norm.position_mean.reshape(2, 3)) / norm.position_std.reshape(2, 3)
     return out.reshape(actions.shape)
 
 
 def loss_terms(out: jax.Array, targets: jax.Array, arms: jax.Array) -> tuple[jax.Array, dict[str, jax.Array]]:
     """Loss of a batch: outputs (B, K, 16), targets (B, K, 16) from :func:`normalize_targets`, arms (B,) 1 or
     2 (the Kinova's columns count only for 2). Returns the total and its terms: mean squared error of the
-    normalized position offsets, squared error of the quaternions (the target's sign in the hemisphere of
+    normalized positions, squared error of the quaternions (the target's sign in the hemisphere of
     the current orientation, as recorded) and the gripper's binary cross-entropy (weight 0.5)."""
     mask = jnp.stack([jnp.ones(arms.shape), (arms == 2).astype(jnp.float32)], 1)  # (B, 2)
     out, targets = out.reshape(*out.shape[:2], 2, 8), targets.reshape(*targets.shape[:2], 2, 8)
-    offset = ((out[..., :3] - targets[..., :3]) ** 2).mean(-1)
+    position = ((out[..., :3] - targets[..., :3]) ** 2).mean(-1)
     quat = ((out[..., 3:7] - targets[..., 3:7]) ** 2).sum(-1)
     grip = optax.sigmoid_binary_cross_entropy(out[..., 7], targets[..., 7])
     weight = mask[:, None, :] / (mask.sum() * out.shape[1])
     terms = {
-        "offset": (offset * weight).sum(),
+        "position": (position * weight).sum(),
         "quaternion": (quat * weight).sum(),
         "gripper": (grip * weight).sum(),
     }
-    return terms["offset"] + terms["quaternion"] + 0.5 * terms["gripper"], terms
+    return terms["position"] + terms["quaternion"] + 0.5 * terms["gripper"], terms
 
 
 def decode(out: np.ndarray, state: np.ndarray, norm: Normalizer) -> np.ndarray:
     """One sample's raw output (K, 16) → absolute actions (K, 16): per arm the end-effector target
-    position (m, world: the arm's position in the un-normalized ``state`` plus the offset), the unit
+    position (m, world; an offset is added to the arm's position in the un-normalized ``state``), the unit
     quaternion and the gripper command 0 or 1."""
     out = np.asarray(out, float).reshape(len(out), 2, 8)
-    offset = out[..., :3] * norm.offset_std.reshape(2, 3) + norm.offset_mean.reshape(2, 3)
-    position = offset + np.stack([state[0:3], state[8:11]])
+    position = out[..., :3] * norm.position_std.reshape(2, 3) + norm.position_mean.reshape(2, 3)
+    if not norm.absolute:
+        position = position + np.stack([state[0:3], state[8:11]])
     quat = out[..., 3:7] / np.maximum(np.linalg.norm(out[..., 3:7], axis=-1, keepdims=True), 1e-6)
     grip = (out[..., 7:8] >= 0.0).astype(float)
     return np.concatenate([position, quat, grip], axis=-1).reshape(len(out), 16)

@@ -38,22 +38,31 @@ class PolicyError(RuntimeError):
     """A checkpoint that cannot be read, or a task the policy was not trained on."""
 
 
-def normalizer(samples: Samples) -> Normalizer:
-    """Means and standard deviations of the samples' state and position offsets (the Kinova's from the
-    two-arm samples only; a constant dimension gets deviation 1)."""
+STATE_STD_FLOOR = 0.02
+"""Smallest standard deviation a state dimension is normalized by (m, quaternion units): a dimension that
+barely varies in the demonstrations (the top-down quaternion's small components) would otherwise turn a
+millimetre off the demonstrations into a huge input."""
+POSITION_STD_FLOOR = 0.005
+"""Smallest standard deviation (m) a position target is normalized by."""
 
-    def stats(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+
+def normalizer(samples: Samples, absolute: bool) -> Normalizer:
+    """Means and standard deviations of the samples' state and position targets (world positions when
+    ``absolute``, else offsets; the Kinova's from the two-arm samples only), the deviations no smaller than
+    :data:`STATE_STD_FLOOR` and :data:`POSITION_STD_FLOOR`."""
+
+    def stats(x: np.ndarray, floor: float) -> tuple[np.ndarray, np.ndarray]:
         if len(x) == 0:
             return np.zeros(x.shape[1], np.float32), np.ones(x.shape[1], np.float32)
-        std = x.std(0)
-        return x.mean(0).astype(np.float32), np.where(std > 1e-6, std, 1.0).astype(np.float32)
+        return x.mean(0).astype(np.float32), np.maximum(x.std(0), floor).astype(np.float32)
 
-    s_mean, s_std = stats(samples.state)
-    franka = stats(samples.actions[..., 0:3].reshape(-1, 3))
-    kinova = stats(samples.actions[samples.arms == 2][..., 8:11].reshape(-1, 3))
-    return Normalizer(
-        s_mean, s_std, np.concatenate([franka[0], kinova[0]]), np.concatenate([franka[1], kinova[1]])
-    )
+    s_mean, s_std = stats(samples.state, STATE_STD_FLOOR)
+    plain = Normalizer(s_mean, s_std, np.zeros(6), np.ones(6), absolute)
+    position = plain.targets(samples.actions, samples.state)  # (n, K, 2, 3)
+    franka = stats(position[..., 0, :].reshape(-1, 3), POSITION_STD_FLOOR)
+    kinova = stats(position[samples.arms == 2][..., 1, :].reshape(-1, 3), POSITION_STD_FLOOR)
+    mean, std = np.concatenate([franka[0], kinova[0]]), np.concatenate([franka[1], kinova[1]])
+    return Normalizer(s_mean, s_std, mean, std, absolute)
 
 
 def _shift(images: jax.Array, key: jax.Array, pad: int) -> jax.Array:
@@ -77,7 +86,7 @@ def train(
     """Fit a :class:`~taskcond.il.policy.Policy` to ``samples``; ``progress`` is told the step and the mean
     loss of the last ``log_every`` steps. Returns the trained policy and the history (loss terms every
     ``log_every`` steps, seconds)."""
-    norm = normalizer(samples)
+    norm = normalizer(samples, spec.absolute)
     key = jax.random.PRNGKey(spec.seed)
     key, init = jax.random.split(key)
     model = Policy(spec.net, len(samples.names), STATE_DIM, CHUNK, ACTION_DIM, init)
@@ -87,13 +96,15 @@ def train(
     optimizer = optax.adamw(schedule, weight_decay=spec.weight_decay)
     opt_state = optimizer.init(eqx.filter(model, eqx.is_array))
     states = (samples.state - norm.state_mean) / norm.state_std
-    targets = normalize_targets(samples.actions, norm)
+    targets = normalize_targets(samples.actions, samples.state, norm)
 
     @eqx.filter_jit
     def step(model, opt_state, images, state, progress_, task, target, arms, key):
         def loss(model):
-            x = _shift(to_input(images), key, spec.shift) if spec.shift else to_input(images)
-            out = jax.vmap(model)(x, state, progress_, task)
+            shift, noise = jax.random.split(key)
+            x = _shift(to_input(images), shift, spec.shift) if spec.shift else to_input(images)
+            noisy = state + spec.state_noise * jax.random.normal(noise, state.shape)
+            out = jax.vmap(model)(x, noisy, progress_, task)
             return loss_terms(out, target, arms)
 
         (value, terms), grads = eqx.filter_value_and_grad(loss, has_aux=True)(model)
@@ -101,7 +112,13 @@ def train(
         return eqx.apply_updates(model, updates), opt_state, value, terms
 
     rng = np.random.default_rng(spec.seed)
-    history: dict[str, list[float]] = {"step": [], "loss": [], "offset": [], "quaternion": [], "gripper": []}
+    history: dict[str, list[float]] = {
+        "step": [],
+        "loss": [],
+        "position": [],
+        "quaternion": [],
+        "gripper": [],
+    }
     window: list[tuple[float, dict[str, float]]] = []
     start = time.perf_counter()
     for k in range(1, spec.steps + 1):
@@ -123,7 +140,7 @@ def train(
             values = jax.device_get(window)
             history["step"].append(k)
             history["loss"].append(float(np.mean([v for v, _ in values])))
-            for name in ("offset", "quaternion", "gripper"):
+            for name in ("position", "quaternion", "gripper"):
                 history[name].append(float(np.mean([t[name] for _, t in values])))
             window = []
             if progress is not None:
