@@ -855,12 +855,16 @@ def _run_episodes(jobs, out: Path, settings: ExecutionSettings, desc: str) -> tu
         fail(f"--backend {settings.backend!r}: use one of {', '.join(BACKENDS)}")
     if settings.planner not in PLANNERS:
         fail(f"--planner {settings.planner!r}: use one of {', '.join(PLANNERS)}")
-    library = _library(settings.skills)
     library_dir = settings.skills or default_library_dir()
+    library = _library(settings.skills) if any(j.method != IMAGE_IL for j in jobs) else None
     il_dir = _il_policy() if any(j.method == IMAGE_IL for j in jobs) else None
     try:
         config = execution_config(
-            library_dir, settings.noise, settings.llm, planner=settings.planner, il_dir=il_dir
+            library_dir if library is not None else None,
+            settings.noise,
+            settings.llm,
+            planner=settings.planner,
+            il_dir=il_dir,
         )
         results = ResultsFile(out, config)
     except (ConfigMismatchError, LLMError) as exc:

@@ -399,7 +399,7 @@ def jobs_for(tasks: Iterable[str], methods: Iterable[str], episodes: int, seed: 
 
 
 def execution_config(
-    library_dir: Path,
+    library_dir: Path | None,
     noise: float,
     llm: str | None = None,
     execution: ExecutionConfig | None = None,
@@ -410,7 +410,8 @@ def execution_config(
     """The :class:`~taskcond.results.RunConfig` of episodes run with the skill library at ``library_dir``,
     perception noise ``noise``, LLM conditions from ``llm`` (the ``--llm`` spec; resolved as
     :func:`make_source` does), the executor constants ``execution`` (default ones when None), the plan
-    repair ``planner``, the start state ``start`` and, when the baseline runs, its checkpoint ``il_dir``.
+    repair ``planner``, the start state ``start`` and, when the baseline runs, its checkpoint ``il_dir``
+    (``library_dir`` None: no episode uses the skill library).
 
     Raises:
         LLMError: ``llm`` names no known backend or model.
@@ -419,7 +420,7 @@ def execution_config(
         kind="execution",
         **llm_fields(llm),
         noise=noise,
-        skills=directory_digest(library_dir) if library_dir.exists() else None,
+        skills=directory_digest(library_dir) if library_dir is not None and library_dir.exists() else None,
         execution=asdict(execution or ExecutionConfig()),
         planner=planner,
         start=start,
@@ -442,7 +443,7 @@ def _init_worker(
     _WORKER.clear()
     _WORKER.update(
         args=(library_dir, llm, noise, planner, il_dir),
-        library=SkillLibrary.load(library_dir),
+        library_dir=library_dir,
         llm=llm,
         noise=noise,
         sources={},
@@ -524,7 +525,6 @@ def run_policy_episode(plan: RunPlan, seed: int, policy: Any, video: Path | None
 def _run_job(job: Job) -> dict[str, Any]:
     """One episode as a results record; an exception is returned as a ``crashed`` record (not a
     result: a resumed evaluation runs it again)."""
-    library: SkillLibrary = _WORKER["library"]
     sources: dict[str, ConditionSource | None] = _WORKER["sources"]
     method: Method = job.method  # type: ignore[assignment]
     try:
@@ -532,6 +532,9 @@ def _run_job(job: Job) -> dict[str, Any]:
             if "policy" not in _WORKER:
                 _WORKER["policy"] = load_policy(Path(_WORKER["il_dir"]))
             return run_policy_episode(plan_run(job.task), job.seed, _WORKER["policy"]).summary()
+        if "library" not in _WORKER:  # loaded on first use: the baseline's episodes do not need it
+            _WORKER["library"] = SkillLibrary.load(_WORKER["library_dir"])
+        library: SkillLibrary = _WORKER["library"]
         if method not in sources:
             sources[method] = make_source(method, library, _WORKER["llm"])
         result = run_episode(
