@@ -87,14 +87,11 @@ def test_eval_records_the_checkpoint_in_its_configuration(trained, tmp_path, mon
     target = policy_dir()
     target.parent.mkdir(parents=True)
     target.symlink_to(directory)
-    skills = tmp_path / "skills"
-    from taskcond.execution.kitchen import learn_library
-
-    learn_library(skills, [TASK])
     out = tmp_path / "e.jsonl"
     args = ["eval", "primitives", "--task", TASK, "--method", "image-il", "--episodes", "1", "--workers", "1"]
-    res = CliRunner().invoke(app, [*args, "--skills", str(skills), "--out", str(out)])
+    res = CliRunner().invoke(app, [*args, "--out", str(out)])
     assert res.exit_code == 0, res.output
+    assert not (tmp_path / "cache" / "skills").exists()  # the baseline needs no skill library
     header, record = (json.loads(line) for line in Path(out).read_text().splitlines())
-    assert header["config"]["il"].startswith(f"{target.name}@")
+    assert header["config"]["il"].startswith(f"{target.name}@") and header["config"]["skills"] is None
     assert record["method"] == "image-il" and record["seed"] == 1000 and record["digest"] == header["digest"]
