@@ -28,3 +28,14 @@ def test_the_checkpoint_joins_the_configuration_only_when_used():
     assert with_il.digest != base.digest and with_il.differences(base.to_dict()) == [
         "il: None (file) vs 'p@1' (now)"
     ]
+
+
+def test_without_the_extra_reproduce_shows_the_baseline_as_not_run_and_why(monkeypatch):
+    from taskcond.cli import _without_il
+    from taskcond.reproduce import build_cells, table_specs
+
+    spec = table_specs()["table3"]
+    assert build_cells(spec, [], 1)[("primitives", "grasp", "image-il")].status == "measured"
+    monkeypatch.setitem(sys.modules, "optax", None)
+    cell = build_cells(_without_il(spec), [], 1)[("primitives", "grasp", "image-il")]
+    assert cell.status == "not run" and "pip install 'taskcond[il]'" in cell.note
