@@ -50,6 +50,15 @@ runner = CliRunner()
         (["run", " \t "], "error: empty instruction; give a suite task id"),
         (["learn", "--task", "grasp-unicorn"], "error: unknown object(s) 'unicorn' for primitive 'grasp'"),
         (["eval", "long-horizon", "--task", "LHT9"], "error: 'LHT9' is not a long-horizon task"),
+        (
+            ["eval", "primitives", "--method", "magic"],
+            "error: --method 'magic': use one of llm, llm+demo, env, none, image-il",
+        ),
+        (["learn", "--method", "magic"], "error: --method 'magic': use dmp or image-il"),
+        (
+            ["learn", "--method", "image-il", "--task", "LHT1"],
+            "error: --method image-il learns from the suite",
+        ),
     ],
 )
 def test_bad_input_is_a_one_line_error_with_exit_code_2(args, message, monkeypatch, tmp_path):

@@ -465,11 +465,31 @@ def learn(
         ),
     ] = None,
     primitives: PrimitivesOption = None,
+    method: Annotated[
+        str,
+        typer.Option(
+            "--method",
+            help="What to learn: dmp (the skill library) or image-il (the image-based imitation-learning "
+            "baseline: oracle demonstrations rendered, a policy trained; needs the il extra, about 45 min "
+            "on one core).",
+        ),
+    ] = "dmp",
 ) -> None:
     """Record oracle demonstrations and store the skill library: DMPs and FromEnv conditions (§III-D); or
-    learn the skills of demonstration files (--demo)."""
+    learn the skills of demonstration files (--demo); or train the image-based baseline (--method
+    image-il)."""
     _sim_import()
     _declare(primitives)
+    if method not in ("dmp", "image-il"):
+        fail(f"--method {method!r}: use dmp or image-il")
+    if method == "image-il":
+        if demo or task or out:
+            fail(
+                "--method image-il learns from the suite's oracles into the cache; --demo, --task and --out "
+                "do not apply"
+            )
+        _il_policy(learn_if_missing=True)
+        return
     from tqdm import tqdm
 
     from taskcond.execution.kitchen import CONTEXTS, learn_library, primitive_task_ids
@@ -504,6 +524,59 @@ def learn(
     typer.echo(f"{len(library)} skills from {len(ids)} tasks in {directory}")
     if failed:
         typer.echo(f"oracle failed on every try for: {', '.join(failed)} (their last try was kept)", err=True)
+
+
+def _il_policy(learn_if_missing: bool = True) -> Path:
+    """The directory of the baseline's checkpoint (default specs), trained first with progress bars when
+    missing and ``learn_if_missing``; exit 2 with one line when the [il] extra is missing."""
+    from tqdm import tqdm
+
+    from taskcond.il import ILUnavailableError, require_il
+    from taskcond.il.config import TrainSpec, data_dir, policy_dir
+    from taskcond.il.dataset import DataSpec, collect
+
+    try:
+        require_il()
+    except ILUnavailableError as exc:
+        fail(str(exc))
+    directory = policy_dir()
+    if (directory / "policy.json").exists():
+        typer.echo(f"image-il policy: {directory}", err=True)
+        return directory
+    if not learn_if_missing:
+        fail(f"no image-il policy in {directory}; train it with `taskcond learn --method image-il`")
+    from taskcond.execution.kitchen import CONTEXTS, primitive_task_ids
+    from taskcond.il.train import learn_policy
+
+    data, spec = DataSpec(), TrainSpec()
+    ids = [*primitive_task_ids(), *CONTEXTS]
+    typer.echo(f"training the image-il policy into {directory} (once, about 45 min on one core)", err=True)
+    bar = tqdm(
+        total=sum(map(data.episodes_of, ids)),
+        desc="demonstrations",
+        unit="demo",
+        file=sys.stderr,
+        disable=None,
+    )
+    try:
+        samples = collect(data_dir(data), ids, data, lambda _task: bar.update())
+    except RuntimeError as exc:
+        fail(str(exc))
+    bar.close()
+    bar = tqdm(total=spec.steps, desc="training", unit="step", file=sys.stderr, disable=None)
+
+    def told(step: int, loss: float) -> None:
+        bar.update(step - bar.n)
+        bar.set_postfix(loss=f"{loss:.4f}")
+
+    _, history = learn_policy(directory, samples, data, spec, told)
+    bar.close()
+    typer.echo(
+        f"image-il policy: {len(samples)} samples of {len(samples.names)} primitive task names, "
+        f"{spec.steps} steps in {history['seconds'] / 60:.1f} min, final loss {history['loss'][-1]:.4f}; "
+        f"{directory}"
+    )
+    return directory
 
 
 def _learn_files(files: list[Path], out: Path | None) -> None:
@@ -767,6 +840,7 @@ def _run_episodes(jobs, out: Path, settings: ExecutionSettings, desc: str) -> tu
 
     from taskcond.execution.runner import (
         BACKENDS,
+        IMAGE_IL,
         PLANNERS,
         cpu_count,
         default_library_dir,
@@ -781,10 +855,17 @@ def _run_episodes(jobs, out: Path, settings: ExecutionSettings, desc: str) -> tu
         fail(f"--backend {settings.backend!r}: use one of {', '.join(BACKENDS)}")
     if settings.planner not in PLANNERS:
         fail(f"--planner {settings.planner!r}: use one of {', '.join(PLANNERS)}")
-    library = _library(settings.skills)
     library_dir = settings.skills or default_library_dir()
+    library = _library(settings.skills) if any(j.method != IMAGE_IL for j in jobs) else None
+    il_dir = _il_policy() if any(j.method == IMAGE_IL for j in jobs) else None
     try:
-        config = execution_config(library_dir, settings.noise, settings.llm, planner=settings.planner)
+        config = execution_config(
+            library_dir if library is not None else None,
+            settings.noise,
+            settings.llm,
+            planner=settings.planner,
+            il_dir=il_dir,
+        )
         results = ResultsFile(out, config)
     except (ConfigMismatchError, LLMError) as exc:
         fail(str(exc))
@@ -820,6 +901,7 @@ def _run_episodes(jobs, out: Path, settings: ExecutionSettings, desc: str) -> tu
             planner=settings.planner,
             backend=settings.backend,
             ray_address=settings.ray_address,
+            il_dir=il_dir,
         )
     except RuntimeError as exc:  # Ray missing or unreachable
         fail(str(exc))
@@ -852,13 +934,12 @@ def _eval_execution(
     settings: ExecutionSettings,
 ) -> None:
     _sim_import()
-    from taskcond.execution.executor import METHODS
-    from taskcond.execution.runner import eval_task_ids, jobs_for, summarize
+    from taskcond.execution.runner import EVAL_METHODS, eval_task_ids, jobs_for, summarize
 
     methods = method or ["llm", "env", "none"]
-    bad = [m for m in methods if m not in METHODS]
+    bad = [m for m in methods if m not in EVAL_METHODS]
     if bad:
-        fail(f"--method {bad[0]!r}: use one of {', '.join(METHODS)}")
+        fail(f"--method {bad[0]!r}: use one of {', '.join(EVAL_METHODS)}")
     ids = eval_task_ids(kind)
     if task:
         unknown = [t for t in task if t not in ids]
@@ -875,10 +956,10 @@ def _eval_execution(
     if as_json:
         typer.echo(json.dumps({"results": rows}, indent=2))
         return
-    typer.echo(f"{'task':34s} {'method':6s} {'success':>9s}  failures")
+    typer.echo(f"{'task':34s} {'method':8s} {'success':>9s}  failures")
     for row in rows:
         rate = f"{row['successes']}/{row['episodes']}"
-        typer.echo(f"{row['task']:34s} {row['method']:6s} {rate:>9s}  {row['failures'] or ''}")
+        typer.echo(f"{row['task']:34s} {row['method']:8s} {rate:>9s}  {row['failures'] or ''}")
     if walls:
         typer.echo(
             f"\n{len(records)} episodes in {out}; {60.0 / (sum(walls) / len(walls)):.1f} episodes per minute "
@@ -895,7 +976,8 @@ def _eval_command(kind: str):
             list[str] | None,
             typer.Option(
                 "--method",
-                help="Methods to compare (repeatable): llm, llm+demo, env, none. Default llm, env, none.",
+                help="Methods to compare (repeatable): llm, llm+demo, env, none, image-il (the image-based "
+                "imitation-learning baseline; needs the il extra). Default llm, env, none.",
             ),
         ] = None,
         workers: Annotated[
@@ -1045,6 +1127,7 @@ def reproduce(
             if len(names) == 1 or (name == names[-1] and not chosen):
                 fail(str(exc))
             # else --row or --column names rows or columns of another table of "all"
+    chosen = [_without_il(spec) for spec in chosen]
     settings = ExecutionSettings(workers, noise, llm, skills, backend, ray_address, planner)
     out.mkdir(parents=True, exist_ok=True)
     crashed = 0
@@ -1071,6 +1154,30 @@ def reproduce(
         typer.echo(f"wrote {out / name}.md, .json, .png", err=True)
     if crashed:
         raise typer.Exit(1)
+
+
+def _without_il(spec):
+    """``spec`` with the image-based baseline's column not run (and said why) when the [il] extra is
+    missing."""
+    from dataclasses import replace
+
+    from taskcond.il import ILUnavailableError, require_il
+
+    try:
+        require_il()
+    except ILUnavailableError as exc:
+        blocks = tuple(
+            replace(
+                b,
+                methods={k: m for k, m in b.methods.items() if m != "image-il"},
+                pending={**b.pending, **{k: str(exc) for k, m in b.methods.items() if m == "image-il"}},
+            )
+            for b in spec.blocks
+        )
+        if blocks != spec.blocks:
+            typer.echo(f"{spec.name}: the image-il column is not run: {exc}", err=True)
+        return replace(spec, blocks=blocks)
+    return spec
 
 
 def main(args: list[str] | None = None) -> NoReturn:

@@ -43,6 +43,9 @@ class RunConfig:
         planner: plan repair before execution: ``conditions`` (the look-ahead planner,
             :mod:`taskcond.execution.planner`) or ``none`` (the paper's sequence as given).
         skills: the skill library, ``<directory name>@<SHA-256 prefix of its files>`` (None when unused).
+        il: the image-based baseline's checkpoint (:mod:`taskcond.il`), ``<directory name>@<SHA-256 prefix
+            of its files>``; None when the baseline does not run (then left out of :meth:`to_dict`, so the
+            digests of configurations without it are those of earlier versions).
         execution: the constants of Alg. 1 and Alg. 2 (:class:`~taskcond.execution.executor.ExecutionConfig`
             as a dict; empty for ``conditions``).
         code: ``git describe`` of the package's checkout (``-dirty+<diff hash>`` with local changes), else
@@ -60,9 +63,13 @@ class RunConfig:
     skills: str | None = None
     execution: dict[str, Any] = field(default_factory=dict)
     code: str = ""
+    il: str | None = None
 
     def to_dict(self) -> dict[str, Any]:
-        return asdict(self)
+        out = asdict(self)
+        if out["il"] is None:
+            del out["il"]
+        return out
 
     @property
     def digest(self) -> str:

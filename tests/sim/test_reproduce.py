@@ -85,7 +85,7 @@ def test_reproduce_writes_the_table_and_resumes(library_dir, tmp_path):
     assert {p.name for p in out.iterdir()} == {"table4.md", "table4.json", "table4.png", "table4.jsonl"}
     md = (out / "table4.md").read_text()
     assert "| LHT1 | not run · paper 0.8% | **100%** (1/1, CI 21%–100%) · paper 50% |" in md
-    assert "issue 20, item 1" in md  # why the baseline is not run
+    assert "Image-based IL baseline: not run, not selected (--column)" in md  # why the baseline is not run
     table = json.loads((out / "table4.json").read_text())
     cell = table["blocks"][0]["rows"][0]["cells"]["none"]
     assert cell["trials"] == 1 and cell["paper"] == 50 and cell["ci95"][1] == 1.0

@@ -50,6 +50,13 @@ PLANNERS = ("conditions", "none")
 """``conditions``: the look-ahead planner repairs the plan before execution (beyond the paper); ``none``:
 the plan runs as given, Alg. 1 alone satisfies pre-conditions (the paper's behaviour)."""
 
+IMAGE_IL = "image-il"
+"""The paper's image-based imitation-learning baseline (:mod:`taskcond.il`): a method of evaluations, not of
+the executor."""
+EVAL_METHODS: tuple[str, ...] = (*METHODS, IMAGE_IL)
+"""Methods an evaluation runs: the executor's (:data:`~taskcond.execution.executor.METHODS`) and the
+baseline."""
+
 DEFAULT_NOISE = 0.005
 """Default perception noise σ (m) on object centres and boxes in runs and evaluations (§III-A.2)."""
 
@@ -392,17 +399,19 @@ def jobs_for(tasks: Iterable[str], methods: Iterable[str], episodes: int, seed: 
 
 
 def execution_config(
-    library_dir: Path,
+    library_dir: Path | None,
     noise: float,
     llm: str | None = None,
     execution: ExecutionConfig | None = None,
     planner: str = "conditions",
     start: str = "task",
+    il_dir: Path | None = None,
 ) -> RunConfig:
     """The :class:`~taskcond.results.RunConfig` of episodes run with the skill library at ``library_dir``,
     perception noise ``noise``, LLM conditions from ``llm`` (the ``--llm`` spec; resolved as
     :func:`make_source` does), the executor constants ``execution`` (default ones when None), the plan
-    repair ``planner`` and the start state ``start``.
+    repair ``planner``, the start state ``start`` and, when the baseline runs, its checkpoint ``il_dir``
+    (``library_dir`` None: no episode uses the skill library).
 
     Raises:
         LLMError: ``llm`` names no known backend or model.
@@ -411,10 +420,11 @@ def execution_config(
         kind="execution",
         **llm_fields(llm),
         noise=noise,
-        skills=directory_digest(library_dir) if library_dir.exists() else None,
+        skills=directory_digest(library_dir) if library_dir is not None and library_dir.exists() else None,
         execution=asdict(execution or ExecutionConfig()),
         planner=planner,
         start=start,
+        il=directory_digest(il_dir) if il_dir is not None and il_dir.exists() else None,
         code=code_version(),
     )
 
@@ -422,25 +432,109 @@ def execution_config(
 _WORKER: dict[str, Any] = {}
 
 
-def _init_worker(library_dir: str, llm: str | None, noise: float, planner: str = "conditions") -> None:
+WorkerArgs = tuple[str, str | None, float, str, str | None]
+"""What a worker process needs: skill library directory, LLM spec, noise, planner, the baseline's
+checkpoint directory (None when it does not run)."""
+
+
+def _init_worker(
+    library_dir: str, llm: str | None, noise: float, planner: str = "conditions", il_dir: str | None = None
+) -> None:
     _WORKER.clear()
     _WORKER.update(
-        args=(library_dir, llm, noise, planner),
-        library=SkillLibrary.load(library_dir),
+        args=(library_dir, llm, noise, planner, il_dir),
+        library_dir=library_dir,
         llm=llm,
         noise=noise,
         sources={},
         planner=planner,
+        il_dir=il_dir,
+    )
+
+
+def load_policy(directory: Path) -> Any:
+    """The baseline's trained policy (:class:`taskcond.il.train.TrainedPolicy`) in ``directory``.
+
+    Raises:
+        ILUnavailableError: the ``[il]`` extra is missing.
+        PolicyError: no checkpoint there.
+    """
+    from taskcond.il import require_il
+
+    require_il()
+    from taskcond.il.train import TrainedPolicy
+
+    return TrainedPolicy.load(directory)
+
+
+def run_policy_episode(plan: RunPlan, seed: int, policy: Any, video: Path | None = None) -> EpisodeResult:
+    """Reset the plan's suite task with ``seed`` and run its primitive task names with the baseline's
+    ``policy`` (:func:`taskcond.il.rollout.run_policy`); success is the task's own check.
+
+    Raises:
+        ValueError: a free instruction (the baseline runs the suite's tasks only).
+        PolicyError: a step the policy was not trained on.
+    """
+    from taskcond.il.rollout import run_policy
+
+    if plan.task_id is None:
+        raise ValueError(f"--method {IMAGE_IL} runs suite tasks only, not {plan.label!r}")
+    start = time.perf_counter()
+    env = make(plan.task_id)
+    recorder = VideoRecorder(video) if video is not None else None
+    try:
+        obs, _ = env.reset(seed=seed)
+        run = run_policy(env, obs, policy, plan.steps, recorder)
+        goal = tuple(env.task.post_conditions())
+        missing = [str(q) for q in goal if not env.truth.holds(q)]
+        success = run.failure is None and bool(env.task.success(env))
+        final = final_predicates(env)
+        sim_seconds = run.control_steps * env.dt
+    finally:
+        if recorder is not None:
+            recorder.close()
+        env.close()
+    failure, reason = run.failure, run.detail or run.failure
+    if failure is None and not success:
+        failure = "not_succeeded"
+        reason = (
+            f"the goal does not hold: {', '.join(missing)}"
+            if missing
+            else "the run completed but the task's success check failed"
+        )
+    return EpisodeResult(
+        task=plan.label,
+        method=IMAGE_IL,
+        seed=seed,
+        success=success,
+        failure=None if success else failure,
+        reason=None if success else reason,
+        steps=run.steps,
+        sim_seconds=round(sim_seconds, 3),
+        wall_seconds=round(time.perf_counter() - start, 3),
+        env_seconds=round(run.env_seconds, 3),
+        adjustments=0,
+        raised=0,
+        planner="none",
+        goal=[str(q) for q in goal],
+        goal_missing=missing,
+        final_predicates=final,
     )
 
 
 def _run_job(job: Job) -> dict[str, Any]:
     """One episode as a results record; an exception is returned as a ``crashed`` record (not a
     result: a resumed evaluation runs it again)."""
-    library: SkillLibrary = _WORKER["library"]
     sources: dict[str, ConditionSource | None] = _WORKER["sources"]
     method: Method = job.method  # type: ignore[assignment]
     try:
+        if job.method == IMAGE_IL:
+            if "policy" not in _WORKER:
+                _WORKER["policy"] = load_policy(Path(_WORKER["il_dir"]))
+            return run_policy_episode(plan_run(job.task), job.seed, _WORKER["policy"]).summary()
+        if "library" not in _WORKER:  # loaded on first use: the baseline's episodes do not need it
+            _WORKER["library"] = SkillLibrary.load(_WORKER["library_dir"])
+        library: SkillLibrary = _WORKER["library"]
         if method not in sources:
             sources[method] = make_source(method, library, _WORKER["llm"])
         result = run_episode(
@@ -463,9 +557,9 @@ def _run_job(job: Job) -> dict[str, Any]:
         }
 
 
-def run_job(job: Job, init_args: tuple[str, str | None, float, str]) -> dict[str, Any]:
-    """:func:`_run_job` in a process that keeps its skill library and condition sources between calls
-    with the same ``init_args`` (library directory, LLM spec, noise, planner): a Ray task's entry point."""
+def run_job(job: Job, init_args: WorkerArgs) -> dict[str, Any]:
+    """:func:`_run_job` in a process that keeps its skill library, condition sources and policy between
+    calls with the same ``init_args`` (:data:`WorkerArgs`): a Ray task's entry point."""
     if _WORKER.get("args") != init_args:
         _init_worker(*init_args)
     return _run_job(job)
@@ -477,7 +571,7 @@ BACKENDS = ("local", "ray")
 
 def run_jobs(
     jobs: list[Job],
-    init_args: tuple[str, str | None, float, str],
+    init_args: WorkerArgs,
     workers: int = 1,
     backend: str = "local",
     ray_address: str | None = None,
@@ -513,14 +607,17 @@ def evaluate(
     planner: str = "conditions",
     backend: str = "local",
     ray_address: str | None = None,
+    il_dir: Path | None = None,
 ) -> list[dict[str, Any]]:
-    """Run the jobs that ``results`` (the file of this configuration) does not hold yet with ``planner``,
-    appending each record as its episode ends; returns every result of ``jobs``. Crashed episodes are
-    appended marked ``crashed`` and are not results: the next call runs them again."""
+    """Run the jobs that ``results`` (the file of this configuration) does not hold yet with ``planner``
+    (and the baseline's checkpoint ``il_dir`` for its jobs), appending each record as its episode ends;
+    returns every result of ``jobs``. Crashed episodes are appended marked ``crashed`` and are not
+    results: the next call runs them again."""
     wanted = {j.key for j in jobs}
     done = results.done(Job.key_of)
     todo = [j for j in jobs if j.key not in done]
-    for rec in run_jobs(todo, (str(library_dir), llm, noise, planner), workers, backend, ray_address):
+    args = (str(library_dir), llm, noise, planner, None if il_dir is None else str(il_dir))
+    for rec in run_jobs(todo, args, workers, backend, ray_address):
         results.append(rec)
         if progress is not None:
             progress(rec)
@@ -557,11 +654,14 @@ def cpu_count() -> int:
 __all__ = [
     "BACKENDS",
     "DEFAULT_NOISE",
+    "EVAL_METHODS",
+    "IMAGE_IL",
     "ORACLE_REVISION",
     "PLANNERS",
     "EpisodeResult",
     "Job",
     "RunPlan",
+    "WorkerArgs",
     "cpu_count",
     "default_library_dir",
     "eval_task_ids",
@@ -569,11 +669,13 @@ __all__ = [
     "execution_config",
     "jobs_for",
     "load_library",
+    "load_policy",
     "make_source",
     "plan_run",
     "refused_task",
     "run_episode",
     "run_job",
     "run_jobs",
+    "run_policy_episode",
     "summarize",
 ]
