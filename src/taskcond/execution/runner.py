@@ -189,6 +189,8 @@ class EpisodeResult:
         final_predicates: every relation and state that holds at the end (ground truth), sorted.
         events: the trace.
         conditions: task name → condition used (JSON form).
+        left_out: in a novel-primitive episode (Table IV, third block), the primitive whose examples the
+            LLM's prompts left out (:func:`left_out_primitive`); None otherwise.
     """
 
     task: str
@@ -211,6 +213,7 @@ class EpisodeResult:
     final_predicates: list[str] = field(default_factory=list)
     events: list[dict[str, Any]] = field(default_factory=list)
     conditions: dict[str, Any] = field(default_factory=dict)
+    left_out: str | None = None
 
     def summary(self) -> dict[str, Any]:
         """The JSON-lines record of an evaluation (no trace, no final predicates; the repair's changes)."""
@@ -350,6 +353,50 @@ def _goal(
         return goal_of(plan.steps)
 
 
+NOVEL_METHODS = ("llm", "llm+demo")
+"""Methods a novel-primitive episode can run: the ones whose conditions come from the LLM."""
+
+
+NOVEL_PRIMITIVE_STREAM = 20
+"""Second word of the seed of the left-out primitive's draw (:func:`left_out_primitive`), so that it is
+independent of the other draws seeded by the episode's seed (reset, perception noise)."""
+
+
+def left_out_primitive(task_id: str, seed: int) -> str:
+    """The primitive left out of the LLM's examples in the novel-primitive episode ``seed`` of the
+    long-horizon task ``task_id`` (paper §V, Table IV "generalize to novel primitive tasks": "a randomly
+    selected unseen primitive task"): drawn uniformly from the task's distinct primitives, in the order
+    they first appear, by a generator seeded with the episode's seed and :data:`NOVEL_PRIMITIVE_STREAM`.
+
+    Raises:
+        ValueError: ``task_id`` is not a long-horizon task of the suite.
+    """
+    info = get_task(task_id).info
+    if info.kind != "long-horizon":
+        raise ValueError(f"{task_id} is a primitive task; novel-primitive episodes are long-horizon tasks")
+    primitives = list(dict.fromkeys(parse_task(name).primitive.id for name in info.primitive))
+    rng = np.random.default_rng([seed, NOVEL_PRIMITIVE_STREAM])
+    return primitives[int(rng.integers(len(primitives)))]
+
+
+def novel_primitive_source(source: ConditionSource, task_id: str, seed: int) -> tuple[ConditionSource, str]:
+    """The condition source of the novel-primitive episode ``seed`` of ``task_id``, and the primitive it
+    leaves out (:func:`left_out_primitive`): ``source`` (LLM conditions, grounded or not) with that
+    primitive's examples left out of every prompt and the examples of its own tasks shuffled by the
+    episode's seed, so that each episode draws its own generalization (cached per draw).
+
+    Raises:
+        ValueError: ``source`` does not ask the LLM; ``task_id`` is not long-horizon.
+    """
+    if not isinstance(source, LLMConditions | GroundedConditions):
+        raise ValueError(
+            f"novel-primitive episodes need LLM conditions (method {' or '.join(NOVEL_METHODS)}), not "
+            f"{source.name}"
+        )
+    primitive = left_out_primitive(task_id, seed)
+    return source.leaving_out(primitive, seed), primitive
+
+
 def make_source(
     method: Method, library: SkillLibrary, llm: str | None = None, cache: bool = True
 ) -> ConditionSource | None:
@@ -398,11 +445,13 @@ def execution_config(
     execution: ExecutionConfig | None = None,
     planner: str = "conditions",
     start: str = "task",
+    novel_primitive: bool = False,
 ) -> RunConfig:
     """The :class:`~taskcond.results.RunConfig` of episodes run with the skill library at ``library_dir``,
     perception noise ``noise``, LLM conditions from ``llm`` (the ``--llm`` spec; resolved as
     :func:`make_source` does), the executor constants ``execution`` (default ones when None), the plan
-    repair ``planner`` and the start state ``start``.
+    repair ``planner``, the start state ``start`` and whether each episode leaves out one primitive's
+    examples (``novel_primitive``, :func:`novel_primitive_source`).
 
     Raises:
         LLMError: ``llm`` names no known backend or model.
@@ -415,6 +464,7 @@ def execution_config(
         execution=asdict(execution or ExecutionConfig()),
         planner=planner,
         start=start,
+        novel_primitive=novel_primitive,
         code=code_version(),
     )
 
@@ -422,15 +472,22 @@ def execution_config(
 _WORKER: dict[str, Any] = {}
 
 
-def _init_worker(library_dir: str, llm: str | None, noise: float, planner: str = "conditions") -> None:
+def _init_worker(
+    library_dir: str,
+    llm: str | None,
+    noise: float,
+    planner: str = "conditions",
+    novel_primitive: bool = False,
+) -> None:
     _WORKER.clear()
     _WORKER.update(
-        args=(library_dir, llm, noise, planner),
+        args=(library_dir, llm, noise, planner, novel_primitive),
         library=SkillLibrary.load(library_dir),
         llm=llm,
         noise=noise,
         sources={},
         planner=planner,
+        novel_primitive=novel_primitive,
     )
 
 
@@ -443,15 +500,19 @@ def _run_job(job: Job) -> dict[str, Any]:
     try:
         if method not in sources:
             sources[method] = make_source(method, library, _WORKER["llm"])
+        source, left_out = sources[method], None
+        if _WORKER["novel_primitive"]:
+            source, left_out = novel_primitive_source(source, job.task, job.seed)  # type: ignore[arg-type]
         result = run_episode(
             plan_run(job.task),
             method,
             job.seed,
             library,
-            sources[method],
+            source,
             _WORKER["noise"],
             planner=_WORKER["planner"],
         )
+        result.left_out = left_out
         return result.summary()
     except Exception as exc:
         return {
@@ -463,9 +524,14 @@ def _run_job(job: Job) -> dict[str, Any]:
         }
 
 
-def run_job(job: Job, init_args: tuple[str, str | None, float, str]) -> dict[str, Any]:
+WorkerArgs = tuple[str, str | None, float, str, bool]
+"""What every episode of an evaluation shares: library directory, LLM spec, noise, planner, novel-primitive
+mode."""
+
+
+def run_job(job: Job, init_args: WorkerArgs) -> dict[str, Any]:
     """:func:`_run_job` in a process that keeps its skill library and condition sources between calls
-    with the same ``init_args`` (library directory, LLM spec, noise, planner): a Ray task's entry point."""
+    with the same ``init_args`` (:data:`WorkerArgs`): a Ray task's entry point."""
     if _WORKER.get("args") != init_args:
         _init_worker(*init_args)
     return _run_job(job)
@@ -477,7 +543,7 @@ BACKENDS = ("local", "ray")
 
 def run_jobs(
     jobs: list[Job],
-    init_args: tuple[str, str | None, float, str],
+    init_args: WorkerArgs,
     workers: int = 1,
     backend: str = "local",
     ray_address: str | None = None,
@@ -513,14 +579,17 @@ def evaluate(
     planner: str = "conditions",
     backend: str = "local",
     ray_address: str | None = None,
+    novel_primitive: bool = False,
 ) -> list[dict[str, Any]]:
-    """Run the jobs that ``results`` (the file of this configuration) does not hold yet with ``planner``,
+    """Run the jobs that ``results`` (the file of this configuration) does not hold yet with ``planner``
+    (each leaving out one primitive's examples with ``novel_primitive``, :func:`novel_primitive_source`),
     appending each record as its episode ends; returns every result of ``jobs``. Crashed episodes are
     appended marked ``crashed`` and are not results: the next call runs them again."""
     wanted = {j.key for j in jobs}
     done = results.done(Job.key_of)
     todo = [j for j in jobs if j.key not in done]
-    for rec in run_jobs(todo, (str(library_dir), llm, noise, planner), workers, backend, ray_address):
+    args: WorkerArgs = (str(library_dir), llm, noise, planner, novel_primitive)
+    for rec in run_jobs(todo, args, workers, backend, ray_address):
         results.append(rec)
         if progress is not None:
             progress(rec)
@@ -528,7 +597,8 @@ def evaluate(
 
 
 def summarize(records: Iterable[dict[str, Any]]) -> list[dict[str, Any]]:
-    """Per task and method: episodes, successes, failures by reason, mean wall seconds per episode."""
+    """Per task and method: episodes, successes, failures by reason, median wall seconds per episode; for
+    novel-primitive episodes also ``left_out``: per left-out primitive, episodes and successes."""
     groups: dict[tuple[str, str], list[dict[str, Any]]] = defaultdict(list)
     for rec in records:
         groups[(rec["task"], rec["method"])].append(rec)
@@ -536,16 +606,21 @@ def summarize(records: Iterable[dict[str, Any]]) -> list[dict[str, Any]]:
     for (task, method), recs in groups.items():
         failures = Counter(r.get("failure") or "not_succeeded" for r in recs if not r.get("success"))
         walls = [r["wall_seconds"] for r in recs if "wall_seconds" in r]
-        rows.append(
-            {
-                "task": task,
-                "method": method,
-                "episodes": len(recs),
-                "successes": sum(bool(r.get("success")) for r in recs),
-                "failures": dict(failures),
-                "median_wall_seconds": round(float(np.median(walls)), 3) if walls else None,
-            }
-        )
+        row = {
+            "task": task,
+            "method": method,
+            "episodes": len(recs),
+            "successes": sum(bool(r.get("success")) for r in recs),
+            "failures": dict(failures),
+            "median_wall_seconds": round(float(np.median(walls)), 3) if walls else None,
+        }
+        if any(r.get("left_out") for r in recs):
+            left_out: dict[str, dict[str, int]] = defaultdict(lambda: {"episodes": 0, "successes": 0})
+            for r in recs:
+                left_out[r["left_out"]]["episodes"] += 1
+                left_out[r["left_out"]]["successes"] += bool(r.get("success"))
+            row["left_out"] = dict(left_out)
+        rows.append(row)
     return rows
 
 
@@ -557,6 +632,7 @@ def cpu_count() -> int:
 __all__ = [
     "BACKENDS",
     "DEFAULT_NOISE",
+    "NOVEL_METHODS",
     "ORACLE_REVISION",
     "PLANNERS",
     "EpisodeResult",
@@ -568,8 +644,10 @@ __all__ = [
     "evaluate",
     "execution_config",
     "jobs_for",
+    "left_out_primitive",
     "load_library",
     "make_source",
+    "novel_primitive_source",
     "plan_run",
     "refused_task",
     "run_episode",
