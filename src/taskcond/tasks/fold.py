@@ -40,10 +40,17 @@ MAX_EDGE_DISTANCE = 0.03
 """Fold success: largest mean distance (m) between the moved edge's nodes and the far edge's."""
 MOVED_EDGE, ONTO_EDGE = "-x", "+x"
 """The fold lays the cloth's near edge (facing the robots) onto its far edge."""
-FRANKA_GRASP_Z = 0.013
-"""Franka end-effector height (m) grasping the cloth on the table: fingertips about 2 mm above it."""
-KINOVA_GRASP_Z = 0.022
-"""Kinova tool-centre-point height (m) grasping the cloth: fingertips about 2 mm above the table."""
+FINGERTIP_CLEARANCE = 0.008
+"""Height (m) of the fingertips above the table when a gripper closes on the cloth. The cloth's nodes lie
+4 mm up (its collision margin), within the pads' anchoring margin (:attr:`ClothSpec.pad_margin`, 12 mm)
+from any clearance up to 16 mm; 8 mm keeps the fingertips off the table when the cloth is perceived up to
+8 mm low (perception noise σ = 5 mm put them on it at a 2 mm clearance)."""
+FRANKA_GRASP_Z = 0.011 + FINGERTIP_CLEARANCE
+"""Franka end-effector height (m) grasping the cloth on the table: fingertips
+:data:`FINGERTIP_CLEARANCE` above it."""
+KINOVA_GRASP_Z = 0.020 + FINGERTIP_CLEARANCE
+"""Kinova tool-centre-point height (m) grasping the cloth: fingertips :data:`FINGERTIP_CLEARANCE` above the
+table."""
 INSET = 0.012
 """Metres the grasp point lies inside the cloth from the corner, along both edges."""
 ARC_HEIGHT = 0.8
