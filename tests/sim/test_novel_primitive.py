@@ -46,14 +46,16 @@ def test_novel_primitive_needs_llm_conditions_and_a_long_horizon_evaluation() ->
 def test_each_episode_draws_its_own_generalization_and_a_rerun_is_cached(embedded_backend, tmp_path) -> None:
     generator = ConditionGenerator(CachedBackend(embedded_backend, tmp_path))
     base = LLMConditions(generator)
-    first, second = base.leaving_out("close", 1000), base.leaving_out("close", 1001)
-    novel = [s.generate("close box") for s in (first, second)]
-    assert all(r.mode == "generalization" and r.excluded == ("close",) for r in novel)
-    assert novel[0].transcripts[0].messages != novel[1].transcripts[0].messages  # the order seed is asked
-    assert not novel[0].cached
+    first = base.leaving_out("close", 1000)
+    novel = first.generate("close box")
+    assert novel.mode == "generalization" and novel.excluded == ("close",) and not novel.cached
+    task = parse_task("close box")
+    asked = novel.transcripts[0].messages
+    assert asked == generator.layout("code", task, ("close",), 1000)[0]  # the episode's example order
+    assert asked != generator.layout("code", task, ("close",), 1001)[0]  # another episode asks another
     assert first.generate("close box").cached  # the same draw again: from the cache
-    seen = [s.generate("grasp bottle") for s in (first, second)]
-    assert all(r.mode == "generation" and r.excluded == ("close",) for r in seen)
-    assert seen[1].cached  # a seen primitive's prompt does not depend on the draw: shared
-    shown = "\n".join(m.content for m in seen[0].transcripts[0].messages)
+    seen = first.generate("grasp bottle")
+    assert seen.mode == "generation" and seen.excluded == ("close",)
+    shown = "\n".join(m.content for m in seen.transcripts[0].messages)
     assert "close A" not in shown and "grasp A" in shown  # the left-out primitive's example is not shown
+    assert base.leaving_out("close", 1001).generate("grasp bottle").cached  # seen primitives: one answer

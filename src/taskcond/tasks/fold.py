@@ -40,11 +40,12 @@ MAX_EDGE_DISTANCE = 0.03
 """Fold success: largest mean distance (m) between the moved edge's nodes and the far edge's."""
 MOVED_EDGE, ONTO_EDGE = "-x", "+x"
 """The fold lays the cloth's near edge (facing the robots) onto its far edge."""
-FINGERTIP_CLEARANCE = 0.008
-"""Height (m) of the fingertips above the table when a gripper closes on the cloth. The cloth's nodes lie
-4 mm up (its collision margin), within the pads' anchoring margin (:attr:`ClothSpec.pad_margin`, 12 mm)
-from any clearance up to 16 mm; 8 mm keeps the fingertips off the table when the cloth is perceived up to
-8 mm low (perception noise σ = 5 mm put them on it at a 2 mm clearance)."""
+FINGERTIP_CLEARANCE = 0.009
+"""Height (m) of the fingertips above the table when a gripper closes on the cloth: the middle of the heights
+from which the grasp anchors the cloth (0-16 mm with :attr:`ClothSpec.pad_margin` 20 mm, measured on
+fold-cloth seed 0), so that an executor's goal moved by the perceived cloth's height (noise σ = 5 mm)
+neither puts the fingertips on the table (as 2 mm did when the cloth was perceived low, an unallowed
+collision) nor grasps above the cloth."""
 FRANKA_GRASP_Z = 0.011 + FINGERTIP_CLEARANCE
 """Franka end-effector height (m) grasping the cloth on the table: fingertips
 :data:`FINGERTIP_CLEARANCE` above it."""
