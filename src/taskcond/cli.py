@@ -976,9 +976,10 @@ def _eval_command(kind: str):
             bool,
             typer.Option(
                 "--novel-primitive",
-                help="Long-horizon tasks only: Table IV's novel primitive tasks: each episode leaves one primitive of its task, drawn "
-                "from the episode's seed, out of the LLM's examples (generalization, example order seeded "
-                "by the episode). Methods llm and llm+demo (default both).",
+                help="Long-horizon tasks only: Table IV's novel primitive tasks: each episode leaves one "
+                "primitive of its task, drawn from the episode's seed, out of the LLM's examples "
+                "(generalization, example order seeded by the episode). Methods llm and llm+demo (default "
+                "both).",
             ),
         ] = False,
     ) -> None:

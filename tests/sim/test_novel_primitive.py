@@ -35,7 +35,8 @@ def test_the_left_out_primitive_is_drawn_from_the_task_by_the_episode_seed() -> 
 
 def test_novel_primitive_needs_llm_conditions_and_a_long_horizon_evaluation() -> None:
     runner = CliRunner()
-    env = runner.invoke(app, ["eval", "long-horizon", "--novel-primitive", "--method", "env", "--task", "LHT1"])
+    args = ["eval", "long-horizon", "--novel-primitive", "--task", "LHT1"]
+    env = runner.invoke(app, [*args, "--method", "env"])
     assert env.exit_code == 2 and "--method 'env' with --novel-primitive" in env.output
     assert "use one of llm, llm+demo" in env.output
     prim = runner.invoke(app, ["eval", "primitives", "--novel-primitive", "--task", "grasp-bottle"])
