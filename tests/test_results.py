@@ -92,3 +92,25 @@ def test_the_generators_own_settings_are_recorded() -> None:
     made = llm_fields("embedded", ConditionGenerator(backend=None, samples=3, prompt_version="v4"))  # type: ignore[arg-type]
     assert made["prompt_version"] == "v4" and made["generator"]["samples"] == 3
     assert llm_fields("embedded")["generator"]["samples"] == 1
+
+
+def test_the_novel_primitive_block_counts_its_own_episodes_and_names_what_was_left_out() -> None:
+    spec = table_specs()["table4"]
+    novel = trials_for(spec, 2, novel_primitive=True)
+    assert sorted({(t.task, t.method) for t in novel}) == [(f"LHT{k}", "llm") for k in range(1, 5)]
+    assert len(novel) == 8 and len(trials_for(spec, 2)) == 4 * 3 * 2 + 2 * 2  # the others: another file
+    records = [
+        {"task": "LHT1", "method": "llm", "seed": 1000, "success": True},  # the "same" block's episode
+        {"task": "LHT1", "method": "llm", "seed": 1000, "success": False, "failure": "condition"}
+        | {"left_out": "close"},
+        {"task": "LHT1", "method": "llm", "seed": 1001, "success": True, "left_out": "grasp"},
+    ]
+    cells = build_cells(spec, records, 2)
+    same, other = cells[("same", "LHT1", "llm")], cells[("novel-primitive", "LHT1", "llm")]
+    assert (same.successes, same.trials) == (1, 1)
+    assert (other.successes, other.trials, other.paper) == (1, 2, 19.5)
+    assert other.failures == {"condition, left out: close": 1}
+    from taskcond.reproduce import table_markdown
+
+    md = table_markdown(spec, cells, "")
+    assert "LHT1, w/ cond from LLM, failures: 1 × condition, left out: close" in md

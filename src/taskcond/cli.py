@@ -6,9 +6,10 @@ Bad input (an unknown task, verb, object, primitive or backend; an LLM that fail
 
 from __future__ import annotations
 
+import contextlib
 import json
 import sys
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 from typing import Annotated, NoReturn
 
@@ -829,6 +830,7 @@ class ExecutionSettings:
     backend: str = "local"
     ray_address: str | None = None
     planner: str = "conditions"
+    novel_primitive: bool = False
 
 
 def _run_episodes(jobs, out: Path, settings: ExecutionSettings, desc: str) -> tuple[list[dict], dict]:
@@ -847,6 +849,7 @@ def _run_episodes(jobs, out: Path, settings: ExecutionSettings, desc: str) -> tu
         evaluate,
         execution_config,
         make_source,
+        novel_primitive_source,
         plan_run,
     )
     from taskcond.results import ConfigMismatchError, Job, ResultsFile
@@ -865,6 +868,7 @@ def _run_episodes(jobs, out: Path, settings: ExecutionSettings, desc: str) -> tu
             settings.llm,
             planner=settings.planner,
             il_dir=il_dir,
+            novel_primitive=settings.novel_primitive,
         )
         results = ResultsFile(out, config)
     except (ConfigMismatchError, LLMError) as exc:
@@ -875,6 +879,19 @@ def _run_episodes(jobs, out: Path, settings: ExecutionSettings, desc: str) -> tu
     for method in llms:  # every condition once here; the workers read the cache
         try:
             source = make_source(method, library, settings.llm)  # type: ignore[arg-type]
+            if settings.novel_primitive:  # one draw per episode; a draw without an answer fails its episode
+                for job in tqdm(
+                    [j for j in todo if j.method == method],
+                    desc="conditions",
+                    unit="episode",
+                    file=sys.stderr,
+                    disable=None,
+                ):
+                    drawn, _ = novel_primitive_source(source, job.task, job.seed)  # type: ignore[arg-type]
+                    for name in plan_run(job.task).steps:
+                        with contextlib.suppress(LLMError):
+                            drawn.condition(name)
+                continue
             names = {s for j in todo if j.method == method for s in plan_run(j.task).steps}
             for name in tqdm(sorted(names), desc="conditions", unit="task", file=sys.stderr, disable=None):
                 source.condition(name)  # type: ignore[union-attr]
@@ -902,6 +919,7 @@ def _run_episodes(jobs, out: Path, settings: ExecutionSettings, desc: str) -> tu
             backend=settings.backend,
             ray_address=settings.ray_address,
             il_dir=il_dir,
+            novel_primitive=settings.novel_primitive,
         )
     except RuntimeError as exc:  # Ray missing or unreachable
         fail(str(exc))
@@ -934,12 +952,17 @@ def _eval_execution(
     settings: ExecutionSettings,
 ) -> None:
     _sim_import()
-    from taskcond.execution.runner import EVAL_METHODS, eval_task_ids, jobs_for, summarize
+    from taskcond.execution.runner import EVAL_METHODS, NOVEL_METHODS, eval_task_ids, jobs_for, summarize
 
-    methods = method or ["llm", "env", "none"]
-    bad = [m for m in methods if m not in EVAL_METHODS]
+    novel = settings.novel_primitive
+    if novel and kind != "long-horizon":
+        fail("--novel-primitive applies to `taskcond eval long-horizon` only")
+    methods = method or (list(NOVEL_METHODS) if novel else ["llm", "env", "none"])
+    valid = NOVEL_METHODS if novel else EVAL_METHODS
+    bad = [m for m in methods if m not in valid]
     if bad:
-        fail(f"--method {bad[0]!r}: use one of {', '.join(EVAL_METHODS)}")
+        what = " with --novel-primitive (its conditions come from the LLM)" if novel else ""
+        fail(f"--method {bad[0]!r}{what}: use one of {', '.join(valid)}")
     ids = eval_task_ids(kind)
     if task:
         unknown = [t for t in task if t not in ids]
@@ -947,7 +970,7 @@ def _eval_execution(
             fail(f"{unknown[0]!r} is not a {kind} task of the evaluation; valid: {', '.join(ids)}")
         ids = task
     jobs = jobs_for(ids, methods, episodes, seed)
-    out = out or Path("runs") / f"eval-{kind}.jsonl"
+    out = out or Path("runs") / f"eval-{kind}{'-novel-primitive' if novel else ''}.jsonl"
     records, config = _run_episodes(jobs, out, settings, kind)
     if config["crashed"]:
         raise typer.Exit(1)
@@ -956,15 +979,36 @@ def _eval_execution(
     if as_json:
         typer.echo(json.dumps({"results": rows}, indent=2))
         return
-    typer.echo(f"{'task':34s} {'method':8s} {'success':>9s}  failures")
-    for row in rows:
-        rate = f"{row['successes']}/{row['episodes']}"
-        typer.echo(f"{row['task']:34s} {row['method']:8s} {rate:>9s}  {row['failures'] or ''}")
+    if novel:
+        _print_novel(rows, records)
+    else:
+        typer.echo(f"{'task':34s} {'method':8s} {'success':>9s}  failures")
+        for row in rows:
+            rate = f"{row['successes']}/{row['episodes']}"
+            typer.echo(f"{row['task']:34s} {row['method']:8s} {rate:>9s}  {row['failures'] or ''}")
     if walls:
         typer.echo(
             f"\n{len(records)} episodes in {out}; {60.0 / (sum(walls) / len(walls)):.1f} episodes per minute "
             f"per core (mean episode wall time); configuration {config['digest']} (code {config['code']})"
         )
+
+
+def _print_novel(rows: list[dict], records: list[dict]) -> None:
+    """The novel-primitive table: per task and method the successes, per left-out primitive
+    (successes/episodes), and each failure's seed, left-out primitive and reason."""
+    typer.echo(f"{'task':6s} {'method':9s} {'success':>8s}  by left-out primitive")
+    for row in rows:
+        rate = f"{row['successes']}/{row['episodes']}"
+        parts = [f"{p} {v['successes']}/{v['episodes']}" for p, v in sorted(row.get("left_out", {}).items())]
+        typer.echo(f"{row['task']:6s} {row['method']:9s} {rate:>8s}  {', '.join(parts)}")
+    failed = sorted(
+        (r for r in records if not r.get("success")), key=lambda r: (r["task"], r["method"], r["seed"])
+    )
+    if failed:
+        typer.echo("\nfailures (task, method, seed, left out: reason):")
+    for r in failed:
+        reason = " ".join(str(r.get("reason") or r.get("failure")).split())[:110]
+        typer.echo(f"  {r['task']} {r['method']} {r['seed']}, {r.get('left_out')} left out: {reason}")
 
 
 def _eval_command(kind: str):
@@ -977,7 +1021,8 @@ def _eval_command(kind: str):
             typer.Option(
                 "--method",
                 help="Methods to compare (repeatable): llm, llm+demo, env, none, image-il (the image-based "
-                "imitation-learning baseline; needs the il extra). Default llm, env, none.",
+                "imitation-learning baseline; needs the il extra). Default llm, env, none (with "
+                "--novel-primitive: llm, llm+demo).",
             ),
         ] = None,
         workers: Annotated[
@@ -990,7 +1035,8 @@ def _eval_command(kind: str):
                 "--out",
                 help="JSON-lines results, appended per episode; it records the configuration, and a run "
                 "with the same configuration resumes from it (another configuration is an error). "
-                "Default runs/eval-primitives.jsonl or runs/eval-long-horizon.jsonl.",
+                "Default runs/eval-primitives.jsonl, runs/eval-long-horizon.jsonl or "
+                "runs/eval-long-horizon-novel-primitive.jsonl.",
             ),
         ] = None,
         task: Annotated[
@@ -1003,8 +1049,20 @@ def _eval_command(kind: str):
         planner: PlannerOption = "conditions",
         backend: BackendOption = "local",
         ray_address: RayAddressOption = None,
+        novel_primitive: Annotated[
+            bool,
+            typer.Option(
+                "--novel-primitive",
+                help="Long-horizon tasks only: Table IV's novel primitive tasks: each episode leaves one "
+                "primitive of its task, drawn from the episode's seed, out of the LLM's examples "
+                "(generalization, example order seeded by the episode). Methods llm and llm+demo (default "
+                "both).",
+            ),
+        ] = False,
     ) -> None:
-        settings = ExecutionSettings(workers, noise, llm, skills, backend, ray_address, planner)
+        settings = ExecutionSettings(
+            workers, noise, llm, skills, backend, ray_address, planner, novel_primitive=novel_primitive
+        )
         _eval_execution(kind, episodes, method, as_json, out, task, seed, settings)
 
     return command
@@ -1140,13 +1198,31 @@ def reproduce(
             records, config = _reproduce_conditions(spec, trials, out / f"{name}.jsonl", llm, skills)
         else:
             records, config = _run_episodes(trials, out / f"{name}.jsonl", settings, name)
+            novel = trials_for(spec, n, novel_primitive=True)
+            if novel:  # another configuration, so another results file
+                more, novel_config = _run_episodes(
+                    novel,
+                    out / f"{name}-novel-primitive.jsonl",
+                    replace(settings, novel_primitive=True),
+                    f"{name} novel primitive",
+                )
+                records = records + more
+                config["crashed"] += novel_config["crashed"]
+                config["novel_primitive_digest"] = novel_config["digest"]
         seconds = time.perf_counter() - start
         crashed += config["crashed"]
         used = sum(not r.get("skipped") for r in records)
         footer = (
             f"{used} trials, {n} per task and method (seeds {spec.seed}+); this invocation "
             f"{seconds / 60:.1f} min; configuration {config['digest']} (code {config['code']}, LLM "
-            f"{config['llm']}, noise {config['noise']}); confidence intervals: Wilson score, 95%."
+            f"{config['llm']}, noise {config['noise']})"
+            + (
+                f"; novel-primitive episodes: configuration {config['novel_primitive_digest']} "
+                f"({name}-novel-primitive.jsonl)"
+                if "novel_primitive_digest" in config
+                else ""
+            )
+            + "; confidence intervals: Wilson score, 95%."
         )
         extra = {"episodes": n, "seconds": round(seconds, 1), "config": config}
         write_table(spec, records, n, out, extra, footer)

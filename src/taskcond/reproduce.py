@@ -3,13 +3,15 @@
 A table is a :class:`TableSpec`: blocks of rows, and the columns each block fills with a *method* (an
 execution method for Tables III and IV, a condition-generation mode for Table II). A column a block does
 not list is the paper's '-' (infeasible); a column listed under ``pending`` is a method we cannot run yet
-(the novel-primitive block; the image-based baseline when the ``[il]`` extra is missing) and shows as "not
-run", never as a number. Adding a row, block or column is one entry here: once the runner knows a method,
-moving its column key from a block's ``pending`` to its ``methods`` makes ``taskcond reproduce`` run it,
-resume it and put it beside the paper's value.
+(the image-based baseline when the ``[il]`` extra is missing) and shows as "not run", never as a number.
+Adding a row, block or column is one entry here: once the runner knows a method, moving its column key
+from a block's ``pending`` to its ``methods`` makes ``taskcond reproduce`` run it, resume it and put it
+beside the paper's value. A block with ``novel_primitive`` (Table IV's third) runs its episodes with one
+primitive left out of the LLM's examples (:func:`taskcond.execution.runner.novel_primitive_source`).
 
 Results go to ``DIR/tableN.jsonl`` through :class:`~taskcond.results.ResultsFile` (configuration
-recorded, resumable, crashed work retried), and each table is written as ``tableN.md`` (ours beside the
+recorded, resumable, crashed work retried; the novel-primitive episodes, another configuration, to
+``DIR/tableN-novel-primitive.jsonl``), and each table is written as ``tableN.md`` (ours beside the
 paper's value, Wilson 95% confidence intervals), ``tableN.json`` and ``tableN.png`` (bars with CI
 whiskers, the paper's values as markers). The paper's values are in ``taskcond/data/paper_tables.json``.
 """
@@ -67,6 +69,8 @@ class Block:
         fixed: method → trials per row task whatever ``--episodes`` says (a deterministic method: every
             trial it has, once).
         notes: column key → how it is measured, printed under the block.
+        novel_primitive: each episode leaves one primitive of its task out of the LLM's examples (its
+            records carry ``left_out``; see :func:`taskcond.execution.runner.novel_primitive_source`).
     """
 
     key: str
@@ -76,6 +80,7 @@ class Block:
     pending: Mapping[str, str] = field(default_factory=dict)
     fixed: Mapping[str, int] = field(default_factory=dict)
     notes: Mapping[str, str] = field(default_factory=dict)
+    novel_primitive: bool = False
 
     def trials(self, method: str, episodes: int) -> int:
         return self.fixed.get(method, episodes)
@@ -103,7 +108,6 @@ IL_NOTE = (
     "behaviour cloning of the oracles from a 64×64 RGB-D camera and proprioception, one policy for every "
     "primitive task name (taskcond.il; `taskcond learn --method image-il`)"
 )
-NOVEL_PRIMITIVE = "the novel-primitive execution (issue 20, item 2) does not exist yet"
 
 
 def _primitive_rows() -> tuple[Row, ...]:
@@ -209,8 +213,13 @@ def table_specs() -> dict[str, TableSpec]:
                 "novel-primitive",
                 "Generalize to novel primitive tasks",
                 _lht_rows(("LHT1", "LHT2", "LHT3", "LHT4")),
-                methods={},
-                pending={"llm": NOVEL_PRIMITIVE},
+                methods={"llm": "llm"},
+                notes={
+                    "llm": "each episode leaves one primitive of the task, drawn from its seed, out of the "
+                    "LLM's examples: that primitive's condition is generalized (prompt v6: the code form, "
+                    "examples shuffled by the episode's seed), the others generated without its example"
+                },
+                novel_primitive=True,
             ),
         ),
         default_episodes=5,
@@ -274,11 +283,13 @@ def only_columns(spec: TableSpec, keys: Iterable[str]) -> TableSpec:
 
 
 # -------------------------------------------------------------------------------------------- trials
-def trials_for(spec: TableSpec, episodes: int) -> list[Job]:
-    """Every trial of ``spec`` with ``episodes`` per row task and method (each once, though a task may
-    appear in several rows)."""
+def trials_for(spec: TableSpec, episodes: int, novel_primitive: bool = False) -> list[Job]:
+    """Every trial of ``spec``'s blocks with (``novel_primitive``) or without novel-primitive episodes,
+    ``episodes`` per row task and method (each once, though a task may appear in several rows)."""
     out: dict[tuple[str, str, int], Job] = {}
     for block in spec.blocks:
+        if block.novel_primitive != novel_primitive:
+            continue
         for row in block.rows:
             for method in block.methods.values():
                 for task in row.tasks:
@@ -340,10 +351,20 @@ def failure_of(record: dict[str, Any]) -> str:
     return record.get("failure") or ("no valid answer" if record.get("error") else "wrong condition")
 
 
+def _failure_label(record: dict[str, Any]) -> str:
+    left_out = record.get("left_out")
+    return failure_of(record) + (f", left out: {left_out}" if left_out else "")
+
+
 def build_cells(spec: TableSpec, records: Iterable[dict[str, Any]], episodes: int) -> dict[tuple, Cell]:
     """``(block, row, column) → Cell`` from the table's records (only seeds below ``spec.seed + episodes``
-    count, so a file of a longer run can serve a shorter one)."""
-    by_key = {(r["task"], r["method"], r["seed"]): r for r in records if not r.get("skipped")}
+    count, so a file of a longer run can serve a shorter one; a novel-primitive block counts the records
+    with a ``left_out`` primitive, the others those without). A failed novel-primitive episode is counted
+    under its reason and the primitive left out (``failure, left out: primitive``)."""
+    novel_of = {True: {}, False: {}}  # type: dict[bool, dict[tuple[str, str, int], dict[str, Any]]]
+    for r in records:
+        if not r.get("skipped"):
+            novel_of[r.get("left_out") is not None][(r["task"], r["method"], r["seed"])] = r
     paper = paper_values()[spec.name]
     cells: dict[tuple, Cell] = {}
     for block in spec.blocks:
@@ -356,6 +377,7 @@ def build_cells(spec: TableSpec, records: Iterable[dict[str, Any]], episodes: in
                     cell = Cell("infeasible", value)
                 else:
                     method = block.methods[col.key]
+                    by_key = novel_of[block.novel_primitive]
                     recs = [
                         by_key[(t, method, spec.seed + k)]
                         for t in row.tasks
@@ -367,7 +389,7 @@ def build_cells(spec: TableSpec, records: Iterable[dict[str, Any]], episodes: in
                         value,
                         successes=sum(success_of(r) for r in recs),
                         trials=len(recs),
-                        failures=dict(Counter(failure_of(r) for r in recs if not success_of(r))),
+                        failures=dict(Counter(_failure_label(r) for r in recs if not success_of(r))),
                     )
                 cells[(block.key, row.key, col.key)] = cell
     return cells
@@ -385,6 +407,13 @@ def table_markdown(spec: TableSpec, cells: dict[tuple, Cell], footer: str) -> st
             lines.append("| " + " | ".join([row.label, *entries]) + " |")
         notes = [f"{spec.column(k).label}: {how}" for k, how in block.notes.items()]
         notes += sorted({f"{spec.column(k).label}: not run, {why}" for k, why in block.pending.items()})
+        if block.novel_primitive:  # which primitive was left out in each failure
+            for row in block.rows:
+                for col in spec.columns:
+                    failures = cells[(block.key, row.key, col.key)].failures
+                    if failures:
+                        listed = "; ".join(f"{n} × {why}" for why, n in sorted(failures.items()))
+                        notes.append(f"{row.label}, {col.label}, failures: {listed}")
         lines += ["", *(f"* {n}" for n in notes), ""] if notes else [""]
     lines.append(footer)
     return "\n".join(lines) + "\n"

@@ -42,6 +42,9 @@ class RunConfig:
             start state, :func:`taskcond.execution.kitchen.random_start`).
         planner: plan repair before execution: ``conditions`` (the look-ahead planner,
             :mod:`taskcond.execution.planner`) or ``none`` (the paper's sequence as given).
+        novel_primitive: each episode leaves one primitive of its long-horizon task out of the LLM's
+            examples, drawn from the episode's seed (Table IV, "generalize to novel primitive tasks";
+            :func:`taskcond.execution.runner.novel_primitive_source`).
         skills: the skill library, ``<directory name>@<SHA-256 prefix of its files>`` (None when unused).
         il: the image-based baseline's checkpoint (:mod:`taskcond.il`), ``<directory name>@<SHA-256 prefix
             of its files>``; None when the baseline does not run (then left out of :meth:`to_dict`, so the
@@ -60,6 +63,7 @@ class RunConfig:
     noise: float | None = None
     start: str = "task"
     planner: str = "none"
+    novel_primitive: bool = False
     skills: str | None = None
     execution: dict[str, Any] = field(default_factory=dict)
     code: str = ""

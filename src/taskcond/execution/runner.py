@@ -61,10 +61,12 @@ DEFAULT_NOISE = 0.005
 """Default perception noise σ (m) on object centres and boxes in runs and evaluations (§III-A.2)."""
 
 
-ORACLE_REVISION = 3
+ORACLE_REVISION = 4
 """Revision of the suite's oracles the default skill library is learned from; raised whenever their
 demonstrations change (2: the bowl and the mug held by their wall, the toothpaste near its top; 3: the
-vessels' walls of 24 segments instead of 12, a release that grips again when the fingers stay jammed),
+vessels' walls of 24 segments instead of 12, a release that grips again when the fingers stay jammed; 4:
+the dual-arm scene's cabinet farther back, the cloth grasped with the fingertips 9 mm above the table
+and a wider anchoring margin),
 so that a library learned from older demonstrations is not picked up by default."""
 
 
@@ -196,6 +198,8 @@ class EpisodeResult:
         final_predicates: every relation and state that holds at the end (ground truth), sorted.
         events: the trace.
         conditions: task name → condition used (JSON form).
+        left_out: in a novel-primitive episode (Table IV, third block), the primitive whose examples the
+            LLM's prompts left out (:func:`left_out_primitive`); None otherwise.
     """
 
     task: str
@@ -218,6 +222,7 @@ class EpisodeResult:
     final_predicates: list[str] = field(default_factory=list)
     events: list[dict[str, Any]] = field(default_factory=list)
     conditions: dict[str, Any] = field(default_factory=dict)
+    left_out: str | None = None
 
     def summary(self) -> dict[str, Any]:
         """The JSON-lines record of an evaluation (no trace, no final predicates; the repair's changes)."""
@@ -357,6 +362,50 @@ def _goal(
         return goal_of(plan.steps)
 
 
+NOVEL_METHODS = ("llm", "llm+demo")
+"""Methods a novel-primitive episode can run: the ones whose conditions come from the LLM."""
+
+
+NOVEL_PRIMITIVE_STREAM = 20
+"""Second word of the seed of the left-out primitive's draw (:func:`left_out_primitive`), so that it is
+independent of the other draws seeded by the episode's seed (reset, perception noise)."""
+
+
+def left_out_primitive(task_id: str, seed: int) -> str:
+    """The primitive left out of the LLM's examples in the novel-primitive episode ``seed`` of the
+    long-horizon task ``task_id`` (paper §V, Table IV "generalize to novel primitive tasks": "a randomly
+    selected unseen primitive task"): drawn uniformly from the task's distinct primitives, in the order
+    they first appear, by a generator seeded with the episode's seed and :data:`NOVEL_PRIMITIVE_STREAM`.
+
+    Raises:
+        ValueError: ``task_id`` is not a long-horizon task of the suite.
+    """
+    info = get_task(task_id).info
+    if info.kind != "long-horizon":
+        raise ValueError(f"{task_id} is a primitive task; novel-primitive episodes are long-horizon tasks")
+    primitives = list(dict.fromkeys(parse_task(name).primitive.id for name in info.primitive))
+    rng = np.random.default_rng([seed, NOVEL_PRIMITIVE_STREAM])
+    return primitives[int(rng.integers(len(primitives)))]
+
+
+def novel_primitive_source(source: ConditionSource, task_id: str, seed: int) -> tuple[ConditionSource, str]:
+    """The condition source of the novel-primitive episode ``seed`` of ``task_id``, and the primitive it
+    leaves out (:func:`left_out_primitive`): ``source`` (LLM conditions, grounded or not) with that
+    primitive's examples left out of every prompt and the examples of its own tasks shuffled by the
+    episode's seed, so that each episode draws its own generalization (cached per draw).
+
+    Raises:
+        ValueError: ``source`` does not ask the LLM; ``task_id`` is not long-horizon.
+    """
+    if not isinstance(source, LLMConditions | GroundedConditions):
+        raise ValueError(
+            f"novel-primitive episodes need LLM conditions (method {' or '.join(NOVEL_METHODS)}), not "
+            f"{source.name}"
+        )
+    primitive = left_out_primitive(task_id, seed)
+    return source.leaving_out(primitive, seed), primitive
+
+
 def make_source(
     method: Method, library: SkillLibrary, llm: str | None = None, cache: bool = True
 ) -> ConditionSource | None:
@@ -406,12 +455,14 @@ def execution_config(
     planner: str = "conditions",
     start: str = "task",
     il_dir: Path | None = None,
+    novel_primitive: bool = False,
 ) -> RunConfig:
     """The :class:`~taskcond.results.RunConfig` of episodes run with the skill library at ``library_dir``,
     perception noise ``noise``, LLM conditions from ``llm`` (the ``--llm`` spec; resolved as
     :func:`make_source` does), the executor constants ``execution`` (default ones when None), the plan
-    repair ``planner``, the start state ``start`` and, when the baseline runs, its checkpoint ``il_dir``
-    (``library_dir`` None: no episode uses the skill library).
+    repair ``planner``, the start state ``start``, when the baseline runs, its checkpoint ``il_dir``
+    (``library_dir`` None: no episode uses the skill library), and whether each episode leaves out one
+    primitive's examples (``novel_primitive``, :func:`novel_primitive_source`).
 
     Raises:
         LLMError: ``llm`` names no known backend or model.
@@ -425,6 +476,7 @@ def execution_config(
         planner=planner,
         start=start,
         il=directory_digest(il_dir) if il_dir is not None and il_dir.exists() else None,
+        novel_primitive=novel_primitive,
         code=code_version(),
     )
 
@@ -432,23 +484,29 @@ def execution_config(
 _WORKER: dict[str, Any] = {}
 
 
-WorkerArgs = tuple[str, str | None, float, str, str | None]
+WorkerArgs = tuple[str, str | None, float, str, str | None, bool]
 """What a worker process needs: skill library directory, LLM spec, noise, planner, the baseline's
-checkpoint directory (None when it does not run)."""
+checkpoint directory (None when it does not run), novel-primitive mode."""
 
 
 def _init_worker(
-    library_dir: str, llm: str | None, noise: float, planner: str = "conditions", il_dir: str | None = None
+    library_dir: str,
+    llm: str | None,
+    noise: float,
+    planner: str = "conditions",
+    il_dir: str | None = None,
+    novel_primitive: bool = False,
 ) -> None:
     _WORKER.clear()
     _WORKER.update(
-        args=(library_dir, llm, noise, planner, il_dir),
+        args=(library_dir, llm, noise, planner, il_dir, novel_primitive),
         library_dir=library_dir,
         llm=llm,
         noise=noise,
         sources={},
         planner=planner,
         il_dir=il_dir,
+        novel_primitive=novel_primitive,
     )
 
 
@@ -537,15 +595,19 @@ def _run_job(job: Job) -> dict[str, Any]:
         library: SkillLibrary = _WORKER["library"]
         if method not in sources:
             sources[method] = make_source(method, library, _WORKER["llm"])
+        source, left_out = sources[method], None
+        if _WORKER["novel_primitive"]:
+            source, left_out = novel_primitive_source(source, job.task, job.seed)  # type: ignore[arg-type]
         result = run_episode(
             plan_run(job.task),
             method,
             job.seed,
             library,
-            sources[method],
+            source,
             _WORKER["noise"],
             planner=_WORKER["planner"],
         )
+        result.left_out = left_out
         return result.summary()
     except Exception as exc:
         return {
@@ -608,15 +670,18 @@ def evaluate(
     backend: str = "local",
     ray_address: str | None = None,
     il_dir: Path | None = None,
+    novel_primitive: bool = False,
 ) -> list[dict[str, Any]]:
     """Run the jobs that ``results`` (the file of this configuration) does not hold yet with ``planner``
-    (and the baseline's checkpoint ``il_dir`` for its jobs), appending each record as its episode ends;
+    (the baseline's checkpoint ``il_dir`` for its jobs; each leaving out one primitive's examples with
+    ``novel_primitive``, :func:`novel_primitive_source`), appending each record as its episode ends;
     returns every result of ``jobs``. Crashed episodes are appended marked ``crashed`` and are not
     results: the next call runs them again."""
     wanted = {j.key for j in jobs}
     done = results.done(Job.key_of)
     todo = [j for j in jobs if j.key not in done]
-    args = (str(library_dir), llm, noise, planner, None if il_dir is None else str(il_dir))
+    il = None if il_dir is None else str(il_dir)
+    args: WorkerArgs = (str(library_dir), llm, noise, planner, il, novel_primitive)
     for rec in run_jobs(todo, args, workers, backend, ray_address):
         results.append(rec)
         if progress is not None:
@@ -625,7 +690,8 @@ def evaluate(
 
 
 def summarize(records: Iterable[dict[str, Any]]) -> list[dict[str, Any]]:
-    """Per task and method: episodes, successes, failures by reason, mean wall seconds per episode."""
+    """Per task and method: episodes, successes, failures by reason, median wall seconds per episode; for
+    novel-primitive episodes also ``left_out``: per left-out primitive, episodes and successes."""
     groups: dict[tuple[str, str], list[dict[str, Any]]] = defaultdict(list)
     for rec in records:
         groups[(rec["task"], rec["method"])].append(rec)
@@ -633,16 +699,21 @@ def summarize(records: Iterable[dict[str, Any]]) -> list[dict[str, Any]]:
     for (task, method), recs in groups.items():
         failures = Counter(r.get("failure") or "not_succeeded" for r in recs if not r.get("success"))
         walls = [r["wall_seconds"] for r in recs if "wall_seconds" in r]
-        rows.append(
-            {
-                "task": task,
-                "method": method,
-                "episodes": len(recs),
-                "successes": sum(bool(r.get("success")) for r in recs),
-                "failures": dict(failures),
-                "median_wall_seconds": round(float(np.median(walls)), 3) if walls else None,
-            }
-        )
+        row = {
+            "task": task,
+            "method": method,
+            "episodes": len(recs),
+            "successes": sum(bool(r.get("success")) for r in recs),
+            "failures": dict(failures),
+            "median_wall_seconds": round(float(np.median(walls)), 3) if walls else None,
+        }
+        if any(r.get("left_out") for r in recs):
+            left_out: dict[str, dict[str, int]] = defaultdict(lambda: {"episodes": 0, "successes": 0})
+            for r in recs:
+                left_out[r["left_out"]]["episodes"] += 1
+                left_out[r["left_out"]]["successes"] += bool(r.get("success"))
+            row["left_out"] = dict(left_out)
+        rows.append(row)
     return rows
 
 
@@ -656,6 +727,7 @@ __all__ = [
     "DEFAULT_NOISE",
     "EVAL_METHODS",
     "IMAGE_IL",
+    "NOVEL_METHODS",
     "ORACLE_REVISION",
     "PLANNERS",
     "EpisodeResult",
@@ -668,9 +740,11 @@ __all__ = [
     "evaluate",
     "execution_config",
     "jobs_for",
+    "left_out_primitive",
     "load_library",
     "load_policy",
     "make_source",
+    "novel_primitive_source",
     "plan_run",
     "refused_task",
     "run_episode",
