@@ -98,7 +98,7 @@ def test_the_novel_primitive_block_counts_its_own_episodes_and_names_what_was_le
     spec = table_specs()["table4"]
     novel = trials_for(spec, 2, novel_primitive=True)
     assert sorted({(t.task, t.method) for t in novel}) == [(f"LHT{k}", "llm") for k in range(1, 5)]
-    assert len(novel) == 8 and len(trials_for(spec, 2)) == 4 * 3 * 2 + 2 * 2  # the others: another file
+    assert len(novel) == 8 and len(trials_for(spec, 2)) == 4 * 4 * 2 + 2 * 2  # the others: another file
     records = [
         {"task": "LHT1", "method": "llm", "seed": 1000, "success": True},  # the "same" block's episode
         {"task": "LHT1", "method": "llm", "seed": 1000, "success": False, "failure": "condition"}

@@ -70,9 +70,12 @@ class RunConfig:
     il: str | None = None
 
     def to_dict(self) -> dict[str, Any]:
+        """The fields as a dict, without those added later (:data:`_LATER_FIELDS`) while they hold their
+        default, so results files written before they existed keep their digest."""
         out = asdict(self)
-        if out["il"] is None:
-            del out["il"]
+        for name, default in _LATER_FIELDS.items():
+            if out[name] == default:
+                del out[name]
         return out
 
     @property
@@ -86,6 +89,10 @@ class RunConfig:
         """``field: ours → theirs`` for every field (nested fields dotted) that differs from ``other``
         (a :meth:`to_dict` form, e.g. a results file's header)."""
         return [f"{k}: {b!r} (file) vs {a!r} (now)" for k, a, b in _diff(self.to_dict(), other)]
+
+
+_LATER_FIELDS: dict[str, Any] = {"il": None, "novel_primitive": False}
+"""Fields of :class:`RunConfig` added after results files existed, with the default they are left out at."""
 
 
 def _diff(a: Any, b: Any, prefix: str = "") -> Iterator[tuple[str, Any, Any]]:
