@@ -14,6 +14,7 @@ from scipy.spatial.transform import Rotation
 from taskcond.conditions import GripperState, Predicate
 from taskcond.envs.kitchen import KitchenEnv
 from taskcond.tasks.base import PrimitiveTask
+from taskcond.tasks.groundtruth import GroundTruth
 from taskcond.tasks.motion_plan import Waypoint
 from taskcond.tasks.motions import CLOSED, current, grasp_of
 
@@ -41,7 +42,7 @@ class Tilt(PrimitiveTask):
     def post_conditions(self) -> tuple[Predicate, ...]:
         return (GripperState(self.objects[0]),)
 
-    def extra_success(self, env: KitchenEnv) -> bool:
+    def extra_success(self, env: KitchenEnv, judge: GroundTruth) -> bool:
         return tilt_angle(env, self.objects[0]) >= MIN_TILT
 
     def waypoints(self, env: KitchenEnv) -> list[Waypoint]:
