@@ -43,6 +43,8 @@ class RunConfig:
         planner: plan repair before execution: ``conditions`` (the look-ahead planner,
             :mod:`taskcond.execution.planner`) or ``none`` (the paper's sequence as given).
         skills: the skill library, ``<directory name>@<SHA-256 prefix of its files>`` (None when unused).
+        instructions: the instructions file of ``taskcond eval instructions``, ``<file name>@<SHA-256
+            prefix>`` (None otherwise).
         execution: the constants of Alg. 1 and Alg. 2 (:class:`~taskcond.execution.executor.ExecutionConfig`
             as a dict; empty for ``conditions``).
         code: ``git describe`` of the package's checkout (``-dirty+<diff hash>`` with local changes), else
@@ -58,6 +60,7 @@ class RunConfig:
     start: str = "task"
     planner: str = "none"
     skills: str | None = None
+    instructions: str | None = None
     execution: dict[str, Any] = field(default_factory=dict)
     code: str = ""
 
@@ -123,6 +126,11 @@ def directory_digest(directory: Path) -> str:
         digest.update(str(path.relative_to(directory)).encode() + b"\0")
         digest.update(path.read_bytes())
     return f"{directory.name}@{digest.hexdigest()[:12]}"
+
+
+def file_digest(path: Path) -> str:
+    """``<name>@<SHA-256 prefix>`` of the bytes of the file ``path``."""
+    return f"{path.name}@{hashlib.sha256(path.read_bytes()).hexdigest()[:12]}"
 
 
 def llm_fields(spec: str | None, generator: Any = None) -> dict[str, Any]:
@@ -252,5 +260,6 @@ __all__ = [
     "RunConfig",
     "code_version",
     "directory_digest",
+    "file_digest",
     "llm_fields",
 ]

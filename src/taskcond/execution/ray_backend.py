@@ -14,7 +14,7 @@ import os
 from collections.abc import Iterator
 from typing import Any
 
-from taskcond.execution.runner import Job, run_job
+from taskcond.execution.runner import Job, WorkerArgs, run_job
 
 
 class RayUnavailableError(RuntimeError):
@@ -54,7 +54,7 @@ def _connect(workers: int, address: str | None):
 
 
 def run_on_ray(
-    jobs: list[Job], init_args: tuple[str, str | None, float, str], workers: int, address: str | None = None
+    jobs: list[Job], init_args: WorkerArgs, workers: int, address: str | None = None
 ) -> Iterator[dict[str, Any]]:
     """The records of ``jobs`` as their Ray tasks finish (one CPU each); a task whose worker died is a
     ``crashed`` record, like an episode that raised."""

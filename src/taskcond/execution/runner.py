@@ -30,19 +30,30 @@ from taskcond.conditions import Predicate, TaskCondition
 from taskcond.envs.kitchen import KitchenEnv
 from taskcond.execution.executor import METHODS, ConditionSource, Event, ExecutionConfig, Executor, Method
 from taskcond.execution.kitchen import (
+    STARTS,
     FreeTask,
     KitchenWorld,
+    RandomStart,
     final_predicates,
     instruction_scene,
     learn_library,
     primitive_task_ids,
+    scene_objects,
 )
 from taskcond.execution.planner import Repair, goal_of, repair
 from taskcond.execution.skills import LIBRARY_FORMAT, SkillError, SkillLibrary
 from taskcond.execution.sources import EnvConditions, GroundedConditions, LLMConditions
 from taskcond.llm.models import cache_dir
 from taskcond.primitives import TaskNameError, parse_task
-from taskcond.results import Job, ResultsFile, RunConfig, code_version, directory_digest, llm_fields
+from taskcond.results import (
+    Job,
+    ResultsFile,
+    RunConfig,
+    code_version,
+    directory_digest,
+    file_digest,
+    llm_fields,
+)
 from taskcond.sim.recording import VideoRecorder
 from taskcond.tasks.registry import UnknownTaskError, get_task, list_tasks, make
 
@@ -107,9 +118,11 @@ class RunPlan:
 
 def plan_run(spec: str, decomposer: Callable[[str, str], list[str]] | None = None) -> RunPlan:
     """Resolve ``spec``: a suite id (``LHT1``, ``grasp-bottle``), a primitive task name of the suite
-    (``"grasp bottle"``), another primitive task name (a declared primitive, or objects no suite task has:
-    one step in the default scene), else a free instruction that ``decomposer`` turns into primitive task
-    names (called with the instruction and its scene, :func:`~taskcond.execution.kitchen.instruction_scene`).
+    (``"grasp bottle"``), another primitive task name on objects of its scene (a declared primitive, or
+    objects no suite task has: one step in the scene :func:`~taskcond.execution.kitchen.instruction_scene`
+    picks), else a free instruction that ``decomposer`` turns into primitive task names (called with the
+    instruction and its scene). A primitive task name on an object its scene lacks (``put the botle into
+    the box``) goes to ``decomposer`` when there is one: the LLM reads a misspelling as the object meant.
 
     Raises:
         ValueError: an empty or blank ``spec``; a free instruction without a decomposer.
@@ -133,12 +146,49 @@ def plan_run(spec: str, decomposer: Callable[[str, str], list[str]] | None = Non
     for info in list_tasks():
         if info.kind == "primitive" and info.task_name == name:
             return RunPlan(spec, info.id, (info.task_name,))
-    if name is not None:  # a primitive task the suite does not have (a declared primitive, other objects)
-        return RunPlan(spec, None, (name,))
+    scene = instruction_scene(spec)
+    if name is not None and (
+        decomposer is None or set(parse_task(name).objects) <= set(scene_objects(scene)[0])
+    ):
+        return RunPlan(spec, None, (name,), scene=scene)  # a primitive task the suite does not have
     if decomposer is None:
         raise ValueError(f"{spec!r} is neither a suite task id nor a primitive task of the suite")
-    scene = instruction_scene(spec)
     return RunPlan(spec, None, tuple(decomposer(spec, scene)), decomposed=True, scene=scene)
+
+
+def llm_decomposer(
+    llm: str | None = None, announce: Callable[[str], None] | None = None
+) -> Callable[[str, str], list[str]]:
+    """The ``decomposer`` of :func:`plan_run` with the LLM of ``llm`` (the ``--llm`` spec; answers cached):
+    an instruction that reads as one primitive task the scene cannot do is refused first
+    (:func:`refused_task`); ``announce`` is told the scene before the LLM is asked.
+
+    The decomposer raises DecompositionError (no valid plan, or refused) and LLMError."""
+    from taskcond.execution.decompose import DecompositionError, decompose
+    from taskcond.llm.config import LLMConfig, make_backend
+
+    backends: list[Any] = []
+
+    def decomposer(instruction: str, scene: str) -> list[str]:
+        objects, affords = scene_objects(scene)
+        refused = refused_task(instruction, objects, affords)
+        if refused is not None:
+            raise DecompositionError(f"{refused}; nothing was run")
+        if announce is not None:
+            announce(scene)
+        if not backends:
+            backends.append(make_backend(LLMConfig.load(llm)))
+        return decompose(instruction, backends[0], objects, affords)
+
+    return decomposer
+
+
+def instruction_plan(text: str, decomposer: Callable[[str, str], list[str]]) -> RunPlan:
+    """A benchmark instruction's plan: its steps as ``taskcond run`` resolves them (:func:`plan_run`: the
+    LLM's decomposition, or a primitive task the words name), always run as a free instruction in its
+    scene, judged by its goal (not by a suite task's check or start)."""
+    plan = plan_run(text, decomposer)
+    return RunPlan(text, None, plan.steps, plan.decomposed, instruction_scene(text))
 
 
 def refused_task(
@@ -183,9 +233,13 @@ class EpisodeResult:
         plan_seconds: wall-clock time of the planner (conditions it had to fetch included).
         repair: the planner's repair (:meth:`~taskcond.execution.planner.Repair.to_dict`), or None
             (``planner="none"``, no conditions, or the planner could not get a condition).
-        goal: the goal predicates (the suite task's post-conditions, or a free instruction's
-            :func:`~taskcond.execution.planner.goal_of` of its plan before repair).
+        goal: the goal predicates (the suite task's post-conditions; a free instruction's given goal, or
+            else :func:`~taskcond.execution.planner.goal_of` of its plan before repair).
         goal_missing: the goal predicates that do not hold at the end (ground truth).
+        plan_goal: with a given goal, the goal :func:`~taskcond.execution.planner.goal_of` derives from the
+            plan (what the plan itself claims to achieve); else empty.
+        plan_goal_held: whether every ``plan_goal`` predicate holds at the end (None without a given goal).
+        start: ``task`` or ``random`` (:data:`~taskcond.execution.kitchen.STARTS`).
         final_predicates: every relation and state that holds at the end (ground truth), sorted.
         events: the trace.
         conditions: task name → condition used (JSON form).
@@ -208,6 +262,9 @@ class EpisodeResult:
     repair: dict[str, Any] | None = None
     goal: list[str] = field(default_factory=list)
     goal_missing: list[str] = field(default_factory=list)
+    plan_goal: list[str] = field(default_factory=list)
+    plan_goal_held: bool | None = None
+    start: str = "task"
     final_predicates: list[str] = field(default_factory=list)
     events: list[dict[str, Any]] = field(default_factory=list)
     conditions: dict[str, Any] = field(default_factory=dict)
@@ -234,25 +291,29 @@ def run_episode(
     planner: str = "conditions",
     on_plan: Callable[[Repair | None, tuple[Predicate, ...]], None] | None = None,
     start_state: str = "task",
+    goal: tuple[Predicate, ...] | None = None,
 ) -> EpisodeResult:
     """Reset the plan's task with ``seed``, repair its steps with the planner (with conditions and
     ``planner="conditions"``), and execute them with ``method``. ``on_plan`` is told the repair and the
-    goal before anything moves. ``start_state="random"`` (a free instruction only) draws the start from
-    :func:`~taskcond.execution.kitchen.random_start`.
+    goal before anything moves. ``start_state="random"`` draws the start from
+    :func:`~taskcond.execution.kitchen.random_start` (a suite task keeps what its start needs,
+    :class:`~taskcond.execution.kitchen.RandomStart`). ``goal`` (a free instruction only) replaces the goal
+    derived from the plan as the success criterion; the derived one is recorded beside it.
 
     Raises:
-        ValueError: an unknown planner; a random start for a suite task.
+        ValueError: an unknown planner or start; a goal given for a suite task.
     """
     if planner not in PLANNERS:
         raise ValueError(f"unknown planner {planner!r}; valid: {', '.join(PLANNERS)}")
-    if start_state != "task" and plan.task_id is not None:
-        raise ValueError(
-            f"--start {start_state}: only a free instruction has one; suite task {plan.task_id} starts "
-            "from its own initial state"
-        )
+    if start_state not in STARTS:
+        raise ValueError(f"unknown start {start_state!r}; valid: {', '.join(STARTS)}")
+    if goal is not None and plan.task_id is not None:
+        raise ValueError(f"suite task {plan.task_id} has its own success check; a goal is for instructions")
     start = time.perf_counter()
     if plan.task_id is None:
         env = KitchenEnv(FreeTask(plan.label, plan.steps, plan.scene, start_state), gui=gui)
+    elif start_state == "random":
+        env = KitchenEnv(RandomStart(get_task(plan.task_id)), gui=gui)
     else:
         env = make(plan.task_id, gui=gui)
     recorder = VideoRecorder(video) if video is not None else None
@@ -269,7 +330,10 @@ def run_episode(
             except (ValueError, RuntimeError, OSError):
                 fixed = None  # a condition the source cannot give: the executor reports it on its step
         planning = time.perf_counter() - planning
-        goal = _goal(plan, env, conditions)
+        derived = _goal(plan, env, conditions)
+        given = goal is not None
+        plan_goal = derived if given else ()
+        goal = goal if goal is not None else derived
         if on_plan is not None:
             on_plan(fixed, goal)
         steps = plan.steps if fixed is None else fixed.steps
@@ -277,6 +341,7 @@ def run_episode(
             executor = Executor(world, library, method, source, config, on_event)
             result = executor.run(steps)
         missing = [str(q) for q in goal if not env.truth.holds(q)]
+        plan_goal_held = all(map(env.truth.holds, plan_goal)) if given else None
         if plan.task_id is None:
             success = result is not None and result.failure is None and not missing
         else:
@@ -318,6 +383,9 @@ def run_episode(
         repair=None if fixed is None else fixed.to_dict(),
         goal=[str(q) for q in goal],
         goal_missing=missing,
+        plan_goal=[str(q) for q in plan_goal],
+        plan_goal_held=plan_goal_held,
+        start=start_state,
         final_predicates=final,
         events=[] if result is None else [e.to_dict() for e in result.events],
         conditions={} if result is None else {k: v.to_dict() for k, v in result.conditions.items()},
@@ -398,11 +466,13 @@ def execution_config(
     execution: ExecutionConfig | None = None,
     planner: str = "conditions",
     start: str = "task",
+    instructions: Path | None = None,
 ) -> RunConfig:
     """The :class:`~taskcond.results.RunConfig` of episodes run with the skill library at ``library_dir``,
     perception noise ``noise``, LLM conditions from ``llm`` (the ``--llm`` spec; resolved as
     :func:`make_source` does), the executor constants ``execution`` (default ones when None), the plan
-    repair ``planner`` and the start state ``start``.
+    repair ``planner``, the start state ``start`` and the instructions file ``instructions`` (the
+    instruction benchmark).
 
     Raises:
         LLMError: ``llm`` names no known backend or model.
@@ -415,6 +485,7 @@ def execution_config(
         execution=asdict(execution or ExecutionConfig()),
         planner=planner,
         start=start,
+        instructions=None if instructions is None else file_digest(instructions),
         code=code_version(),
     )
 
@@ -422,37 +493,65 @@ def execution_config(
 _WORKER: dict[str, Any] = {}
 
 
-def _init_worker(library_dir: str, llm: str | None, noise: float, planner: str = "conditions") -> None:
+def _init_worker(
+    library_dir: str,
+    llm: str | None,
+    noise: float,
+    planner: str = "conditions",
+    start: str = "task",
+    instructions: str | None = None,
+) -> None:
+    from taskcond.instructions import load_instructions
+
     _WORKER.clear()
     _WORKER.update(
-        args=(library_dir, llm, noise, planner),
+        args=(library_dir, llm, noise, planner, start, instructions),
         library=SkillLibrary.load(library_dir),
         llm=llm,
         noise=noise,
         sources={},
         planner=planner,
+        start=start,
+        instructions={} if instructions is None else {i.id: i for i in load_instructions(Path(instructions))},
+        decomposer=llm_decomposer(llm),
     )
 
 
 def _run_job(job: Job) -> dict[str, Any]:
-    """One episode as a results record; an exception is returned as a ``crashed`` record (not a
-    result: a resumed evaluation runs it again)."""
+    """One episode as a results record: a suite task, or with an instructions file the instruction of
+    that id (its plan from the LLM, judged by its goal; a plan the LLM cannot give is a failed episode,
+    ``decomposition``). An exception is returned as a ``crashed`` record (not a result: a resumed
+    evaluation runs it again)."""
+    from taskcond.execution.decompose import DecompositionError
+
     library: SkillLibrary = _WORKER["library"]
     sources: dict[str, ConditionSource | None] = _WORKER["sources"]
     method: Method = job.method  # type: ignore[assignment]
+    instruction = _WORKER["instructions"].get(job.task)
     try:
         if method not in sources:
             sources[method] = make_source(method, library, _WORKER["llm"])
+        if instruction is None:
+            plan, goal, extra = plan_run(job.task), None, {}
+        else:
+            extra = {"task": instruction.id, "instruction": instruction.text}
+            try:
+                plan = instruction_plan(instruction.text, _WORKER["decomposer"])
+            except DecompositionError as exc:
+                return unplanned(job, instruction, str(exc), _WORKER["planner"], _WORKER["start"])
+            goal = instruction.goal
         result = run_episode(
-            plan_run(job.task),
+            plan,
             method,
             job.seed,
             library,
             sources[method],
             _WORKER["noise"],
             planner=_WORKER["planner"],
+            start_state=_WORKER["start"],
+            goal=goal,
         )
-        return result.summary()
+        return result.summary() | extra
     except Exception as exc:
         return {
             "task": job.task,
@@ -463,9 +562,33 @@ def _run_job(job: Job) -> dict[str, Any]:
         }
 
 
-def run_job(job: Job, init_args: tuple[str, str | None, float, str]) -> dict[str, Any]:
+def unplanned(job: Job, instruction: Any, reason: str, planner: str, start: str) -> dict[str, Any]:
+    """The record of an instruction episode that never ran: the LLM gave no valid plan (or the words name
+    a task the scene cannot do). A failure of the method, not a crash."""
+    return {
+        "task": instruction.id,
+        "instruction": instruction.text,
+        "method": job.method,
+        "seed": job.seed,
+        "success": False,
+        "failure": "decomposition",
+        "reason": reason,
+        "steps": [],
+        "planner": planner,
+        "start": start,
+        "goal": [str(q) for q in instruction.goal],
+        "goal_missing": [str(q) for q in instruction.goal],
+    }
+
+
+WorkerArgs = tuple[str, str | None, float, str, str, str | None]
+"""What an evaluation's worker needs (:func:`_init_worker`): skill library directory, LLM spec, noise,
+planner, start, instructions file (None for suite tasks)."""
+
+
+def run_job(job: Job, init_args: WorkerArgs) -> dict[str, Any]:
     """:func:`_run_job` in a process that keeps its skill library and condition sources between calls
-    with the same ``init_args`` (library directory, LLM spec, noise, planner): a Ray task's entry point."""
+    with the same ``init_args`` (:data:`WorkerArgs`): a Ray task's entry point."""
     if _WORKER.get("args") != init_args:
         _init_worker(*init_args)
     return _run_job(job)
@@ -477,7 +600,7 @@ BACKENDS = ("local", "ray")
 
 def run_jobs(
     jobs: list[Job],
-    init_args: tuple[str, str | None, float, str],
+    init_args: WorkerArgs,
     workers: int = 1,
     backend: str = "local",
     ray_address: str | None = None,
@@ -513,14 +636,18 @@ def evaluate(
     planner: str = "conditions",
     backend: str = "local",
     ray_address: str | None = None,
+    start: str = "task",
+    instructions: Path | None = None,
 ) -> list[dict[str, Any]]:
-    """Run the jobs that ``results`` (the file of this configuration) does not hold yet with ``planner``,
-    appending each record as its episode ends; returns every result of ``jobs``. Crashed episodes are
-    appended marked ``crashed`` and are not results: the next call runs them again."""
+    """Run the jobs that ``results`` (the file of this configuration) does not hold yet with ``planner``
+    from ``start`` (a job's task an instruction id of the file ``instructions``, if given), appending each
+    record as its episode ends; returns every result of ``jobs``. Crashed episodes are appended marked
+    ``crashed`` and are not results: the next call runs them again."""
     wanted = {j.key for j in jobs}
     done = results.done(Job.key_of)
     todo = [j for j in jobs if j.key not in done]
-    for rec in run_jobs(todo, (str(library_dir), llm, noise, planner), workers, backend, ray_address):
+    args = (str(library_dir), llm, noise, planner, start, None if instructions is None else str(instructions))
+    for rec in run_jobs(todo, args, workers, backend, ray_address):
         results.append(rec)
         if progress is not None:
             progress(rec)
@@ -567,7 +694,9 @@ __all__ = [
     "eval_task_ids",
     "evaluate",
     "execution_config",
+    "instruction_plan",
     "jobs_for",
+    "llm_decomposer",
     "load_library",
     "make_source",
     "plan_run",
@@ -576,4 +705,5 @@ __all__ = [
     "run_job",
     "run_jobs",
     "summarize",
+    "unplanned",
 ]

@@ -70,6 +70,12 @@ class Task:
     def setup(self, env: KitchenEnv, rng: np.random.Generator) -> None:
         """Bring the freshly randomized scene into the task's initial state (reset time only)."""
 
+    def fixed_joints(self, env: KitchenEnv) -> dict[str, float]:
+        """Container name → open fraction that a random start (:class:`taskcond.execution.kitchen.
+        RandomStart`) must keep: the container states the task assumes at its start and its oracle's
+        demonstration showed (``open box`` needs the box closed). The others are drawn at random."""
+        return {}
+
     def post_conditions(self) -> tuple[Predicate, ...]:
         """Conditions that mark success, in the vocabulary of :mod:`taskcond.conditions`; the same for the
         task's lifetime (:meth:`success` asks once)."""
