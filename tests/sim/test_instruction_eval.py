@@ -136,3 +136,15 @@ def test_run_a_suite_task_from_a_random_start(tmp_path, library_dir, monkeypatch
     data = json.loads(trace.read_text())
     assert data["start"] == "random" and data["config"]["start"] == "random"
     assert data["success"] == (res.exit_code == 0)
+
+
+def test_a_long_horizon_task_from_a_random_start_meets_its_containers_as_drawn() -> None:
+    """LHT1 starts with the box open; from random starts the box is open in some and closed in others."""
+    states = set()
+    for seed in range(6):
+        _, _, env = _start("LHT1", seed)
+        try:
+            states.add(env.truth.holds(ContainerState("box", True)))
+        finally:
+            env.close()
+    assert states == {True, False}

@@ -287,8 +287,9 @@ def random_start(env: KitchenEnv, rng: np.random.Generator, fixed: dict[str, flo
 class RandomStart(Task):
     """A suite task from a random start (``--start random``): :func:`random_start` keeping the containers
     the task's start needs (:meth:`~taskcond.tasks.base.Task.fixed_joints`), then the task's own set-up
-    from there (an object the task starts holding is grasped where it now stands). Everything else (scene,
-    success, oracle) is the task's.
+    from there (:meth:`~taskcond.tasks.base.Task.setup_after_random`: an object the task starts holding is
+    grasped where it now stands; a long-horizon task opens nothing). Everything else (scene, success,
+    oracle) is the task's.
 
     Which tasks keep what (:meth:`fixed_joints` of each family): ``open C`` keeps C closed; ``close C``
     opens C; ``move A into B`` opens B and, for a drawer, closes the other drawer (an open top drawer covers
@@ -310,7 +311,7 @@ class RandomStart(Task):
 
     def setup(self, env: KitchenEnv, rng: np.random.Generator) -> None:
         random_start(env, rng, self.task.fixed_joints(env))
-        self.task.setup(env, rng)
+        self.task.setup_after_random(env, rng)
 
     def post_conditions(self) -> tuple[Predicate, ...]:
         return self.task.post_conditions()
