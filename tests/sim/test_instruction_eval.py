@@ -74,9 +74,10 @@ tags = ["grasp"]
 """
 
 
+@pytest.mark.llm
 def test_eval_instructions_runs_resumes_and_reports_json(tmp_path, library_dir) -> None:
-    """A one-instruction file (its words name a primitive task: no LLM needed), one random start: the
-    record has the instruction, its goal judged by the ground truth, the plan's own goal, the start."""
+    """A one-instruction file, one random start, the embedded LLM decomposing: the record has the
+    instruction, its goal judged by the ground truth, the plan's own goal, the start."""
     file = tmp_path / "mine.toml"
     file.write_text(INSTRUCTIONS, encoding="utf-8")
     out = tmp_path / "eval.jsonl"
