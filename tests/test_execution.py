@@ -235,6 +235,13 @@ def test_parse_plan_accepts_numbered_lines_and_rejects_unknown_objects() -> None
         parse_plan("\n\n", objects)
     with pytest.raises(DecompositionError, match="cannot be opened"):
         parse_plan("open table", objects, lambda prim, objs: "cannot be opened" if prim == "open" else None)
+    # an object named by a part of it is the object; a name two objects could be stays unknown
+    assert parse_plan("open the box lid\nmove bottle into top of box", [*objects, "top drawer"]) == [
+        "open box",
+        "move bottle into box",
+    ]
+    with pytest.raises(DecompositionError, match="names bottle box"):
+        parse_plan("grasp bottle box", objects)
 
 
 def test_landings_are_the_contacts_inside_and_above_post_conditions_imply() -> None:

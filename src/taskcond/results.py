@@ -46,6 +46,8 @@ class RunConfig:
             examples, drawn from the episode's seed (Table IV, "generalize to novel primitive tasks";
             :func:`taskcond.execution.runner.novel_primitive_source`).
         skills: the skill library, ``<directory name>@<SHA-256 prefix of its files>`` (None when unused).
+        instructions: the instructions file of ``taskcond eval instructions``, ``<file name>@<SHA-256
+            prefix>`` (None otherwise).
         il: the image-based baseline's checkpoint (:mod:`taskcond.il`), ``<directory name>@<SHA-256 prefix
             of its files>``; None when the baseline does not run (then left out of :meth:`to_dict`, so the
             digests of configurations without it are those of earlier versions).
@@ -65,6 +67,7 @@ class RunConfig:
     planner: str = "none"
     novel_primitive: bool = False
     skills: str | None = None
+    instructions: str | None = None
     execution: dict[str, Any] = field(default_factory=dict)
     code: str = ""
     il: str | None = None
@@ -91,7 +94,7 @@ class RunConfig:
         return [f"{k}: {b!r} (file) vs {a!r} (now)" for k, a, b in _diff(self.to_dict(), other)]
 
 
-_LATER_FIELDS: dict[str, Any] = {"il": None, "novel_primitive": False}
+_LATER_FIELDS: dict[str, Any] = {"il": None, "novel_primitive": False, "instructions": None}
 """Fields of :class:`RunConfig` added after results files existed, with the default they are left out at."""
 
 
@@ -141,6 +144,11 @@ def directory_digest(directory: Path) -> str:
         digest.update(str(path.relative_to(directory)).encode() + b"\0")
         digest.update(path.read_bytes())
     return f"{directory.name}@{digest.hexdigest()[:12]}"
+
+
+def file_digest(path: Path) -> str:
+    """``<name>@<SHA-256 prefix>`` of the bytes of the file ``path``."""
+    return f"{path.name}@{hashlib.sha256(path.read_bytes()).hexdigest()[:12]}"
 
 
 def llm_fields(spec: str | None, generator: Any = None) -> dict[str, Any]:
@@ -270,5 +278,6 @@ __all__ = [
     "RunConfig",
     "code_version",
     "directory_digest",
+    "file_digest",
     "llm_fields",
 ]

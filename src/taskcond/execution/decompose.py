@@ -26,7 +26,8 @@ class DecompositionError(ValueError):
 def parse_plan(
     text: str, objects: Sequence[str], affords: Callable[[str, tuple[str, ...]], str | None] | None = None
 ) -> list[str]:
-    """Primitive task names from an answer, one per non-empty line (list markers and numbering ignored).
+    """Primitive task names from an answer, one per non-empty line (list markers and numbering ignored);
+    an object named by one of its parts (``open microwave door``) is read as the object.
 
     Raises:
         DecompositionError: no task, too many, a line that is no primitive task, or an object not in
@@ -43,6 +44,9 @@ def parse_plan(
             task = parse_task(line)
         except TaskNameError as exc:
             raise DecompositionError(f"{line!r} is not a primitive task ({exc})") from None
+        named = tuple(_part_of(o, objects) for o in task.objects)
+        if named != task.objects:
+            task = parse_task(task.primitive.task_name(*named))
         unknown = [o for o in task.objects if o not in objects]
         if unknown:
             raise DecompositionError(
@@ -56,6 +60,15 @@ def parse_plan(
     if len(tasks) > MAX_STEPS:
         raise DecompositionError(f"{len(tasks)} tasks; at most {MAX_STEPS} are accepted")
     return tasks
+
+
+def _part_of(name: str, objects: Sequence[str]) -> str:
+    """The scene object that ``name`` names by one of its parts (``microwave door``, ``box lid``: the one
+    object of ``objects`` that ``name`` starts or ends with as whole words), else ``name``."""
+    if name in objects:
+        return name
+    whole = [o for o in objects if name.startswith(f"{o} ") or name.endswith(f" {o}")]
+    return whole[0] if len(whole) == 1 else name
 
 
 def decompose(

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable, Iterable
+from functools import cache
 from pathlib import Path
 
 import numpy as np
@@ -34,6 +35,7 @@ from taskcond.sim.recording import VideoRecorder
 from taskcond.sim.scene import SceneConfig, dual_arm_config
 from taskcond.tasks.base import PrimitiveTask, Task, TaskInfo
 from taskcond.tasks.groundtruth import GroundTruth
+from taskcond.tasks.move import free_goal
 from taskcond.tasks.registry import get_task, list_tasks, make
 
 REACH = 0.95
@@ -219,8 +221,9 @@ def instruction_scene(instruction: str) -> str:
 
 
 STARTS = ("task", "random")
-"""Start states of a free instruction: ``task``, the scene's reset (free objects near their nominal spots,
-containers closed, arms home); ``random``, :func:`random_start`."""
+"""Start states of an episode: ``task``, the task's own (a free instruction: the scene's reset, free objects
+near their nominal spots, containers closed, arms home); ``random``, :func:`random_start` (a suite task:
+:class:`RandomStart`)."""
 
 RANDOM_AREA = ((0.22, 0.55), (-0.45, 0.35))
 """World x and y ranges (m) of the table area where :func:`random_start` places free objects: in front of
@@ -230,21 +233,24 @@ RANDOM_CLEARANCE = 0.03
 RANDOM_TRIES = 200
 
 
-def random_start(env: KitchenEnv, rng: np.random.Generator) -> None:
+def random_start(env: KitchenEnv, rng: np.random.Generator, fixed: dict[str, float] | None = None) -> None:
     """A random start state: each articulated container (drawers, box, microwave) open or closed with
-    probability 1/2; then each free object, in the scene's order, upright with a uniform yaw at a uniform
-    spot of :data:`RANDOM_AREA` whose footprint (its bounding rectangle at that yaw) keeps
-    :data:`RANDOM_CLEARANCE` from the bounding boxes of the containers and the cloth as they now stand
-    and of the objects placed before it: rejection sampling, :data:`RANDOM_TRIES` draws per object, the
-    whole placement drawn again (up to 20 times) when an object finds no spot. ``rng`` decides
-    everything: the same seed gives the same scene.
+    probability 1/2 (a container of ``fixed`` at its given open fraction instead; the draw is made all the
+    same, so that the rest of the scene does not depend on ``fixed``); then each free object, in the
+    scene's order, upright with a uniform yaw at a uniform spot of :data:`RANDOM_AREA` whose footprint
+    (its bounding rectangle at that yaw) keeps :data:`RANDOM_CLEARANCE` from the bounding boxes of the
+    containers and the cloth as they now stand and of the objects placed before it: rejection sampling,
+    :data:`RANDOM_TRIES` draws per object, the whole placement drawn again (up to 20 times) when an object
+    finds no spot. ``rng`` decides everything: the same seed gives the same scene.
 
     Raises:
         RuntimeError: no placement found.
     """
     scene = env.scene
+    fixed = fixed or {}
     for name in scene.joints:
-        scene.set_joint(name, 1.0 if rng.random() < 0.5 else 0.0)
+        drawn = 1.0 if rng.random() < 0.5 else 0.0
+        scene.set_joint(name, fixed.get(name, drawn))
     fixed = [n for n in scene.bodies if n not in scene.free_objects and n not in ("table", "cloth")]
     boxes = [(lo[:2], hi[:2]) for lo, hi in map(scene.aabb, fixed)]
     if scene.cloth is not None:
@@ -278,10 +284,54 @@ def random_start(env: KitchenEnv, rng: np.random.Generator) -> None:
     raise RuntimeError("random start: no collision-free placement of the free objects found")
 
 
+class RandomStart(Task):
+    """A suite task from a random start (``--start random``): :func:`random_start` keeping the containers
+    the task's start needs (:meth:`~taskcond.tasks.base.Task.fixed_joints`), then the task's own set-up
+    from there (:meth:`~taskcond.tasks.base.Task.setup_after_random`: an object the task starts holding is
+    grasped where it now stands; a long-horizon task opens nothing). Everything else (scene, success,
+    oracle) is the task's.
+
+    Which tasks keep what (:meth:`fixed_joints` of each family): ``open C`` keeps C closed; ``close C``
+    opens C; ``move A into B`` opens B and, for a drawer, closes the other drawer (an open top drawer covers
+    the bottom one); ``move A on top of B`` and ``move A in front of B`` keep B closed (the cabinet: both
+    drawers); grasp, release, tilt, move, the cloth tasks and the long-horizon tasks keep nothing (a
+    long-horizon task's own steps, repaired by the planner, must deal with the containers it meets).
+    """
+
+    def __init__(self, task: Task) -> None:
+        self.task = task
+        self.info = task.info
+        self.max_steps = task.max_steps
+
+    def scene_config(self, config: SceneConfig | None) -> SceneConfig | None:
+        return self.task.scene_config(config)
+
+    def ground_truth(self, scene):  # type: ignore[no-untyped-def]
+        return self.task.ground_truth(scene)
+
+    def setup(self, env: KitchenEnv, rng: np.random.Generator) -> None:
+        random_start(env, rng, self.task.fixed_joints(env))
+        self.task.setup_after_random(env, rng)
+
+    def post_conditions(self) -> tuple[Predicate, ...]:
+        return self.task.post_conditions()
+
+    def extra_success(self, env: KitchenEnv) -> bool:
+        return self.task.extra_success(env)
+
+    def success(self, env: KitchenEnv, truth: GroundTruth | None = None) -> bool:
+        return self.task.success(env, truth)
+
+    def plans(self, env: KitchenEnv):  # type: ignore[no-untyped-def]
+        return self.task.plans(env)
+
+
 class FreeTask(Task):
     """A free instruction's episode: the default scene (containers closed, arm home), or the dual-arm
     kitchen with ``scene="dual-arm"``; with ``start="random"`` the start state of :func:`random_start`.
-    Its success is judged by the runner against the instruction's goal predicates, not by the task."""
+    A plan that moves an object to a position gets a target (the observation ``target``) as the suite's
+    move task draws it (:func:`taskcond.tasks.move.free_goal`, from where the object stands). Its success
+    is judged by the runner against the instruction's goal predicates, not by the task."""
 
     max_steps = 10**9
 
@@ -302,16 +352,22 @@ class FreeTask(Task):
     def setup(self, env: KitchenEnv, rng: np.random.Generator) -> None:
         if self.start == "random":
             random_start(env, rng)
+        moved = [
+            parse_task(s).objects[0] for s in self.info.primitive if parse_task(s).primitive.id == "move"
+        ]
+        if moved and moved[0] in env.scene.free_objects:
+            env.target = free_goal(env, moved[0], rng)
 
     def success(self, env: KitchenEnv, truth: GroundTruth | None = None) -> bool:
         return False
 
 
+@cache
 def scene_objects(
     scene: str = "kitchen",
 ) -> tuple[tuple[str, ...], Callable[[str, tuple[str, ...]], str | None]]:
     """The object names of a scene (:data:`SCENES`) and what each primitive affords there (for
-    decomposition)."""
+    decomposition); built once per scene and process."""
     env = KitchenEnv(FreeTask("", scene=scene))
     try:
         world = KitchenWorld(env)
@@ -529,6 +585,7 @@ __all__ = [
     "STARTS",
     "FreeTask",
     "KitchenWorld",
+    "RandomStart",
     "demonstration_id",
     "final_predicates",
     "instruction_scene",

@@ -30,19 +30,30 @@ from taskcond.conditions import Predicate, TaskCondition
 from taskcond.envs.kitchen import KitchenEnv
 from taskcond.execution.executor import METHODS, ConditionSource, Event, ExecutionConfig, Executor, Method
 from taskcond.execution.kitchen import (
+    STARTS,
     FreeTask,
     KitchenWorld,
+    RandomStart,
     final_predicates,
     instruction_scene,
     learn_library,
     primitive_task_ids,
+    scene_objects,
 )
 from taskcond.execution.planner import Repair, goal_of, repair
 from taskcond.execution.skills import LIBRARY_FORMAT, SkillError, SkillLibrary
 from taskcond.execution.sources import EnvConditions, GroundedConditions, LLMConditions
 from taskcond.llm.models import cache_dir
 from taskcond.primitives import TaskNameError, parse_task
-from taskcond.results import Job, ResultsFile, RunConfig, code_version, directory_digest, llm_fields
+from taskcond.results import (
+    Job,
+    ResultsFile,
+    RunConfig,
+    code_version,
+    directory_digest,
+    file_digest,
+    llm_fields,
+)
 from taskcond.sim.recording import VideoRecorder
 from taskcond.tasks.registry import UnknownTaskError, get_task, list_tasks, make
 
@@ -116,9 +127,11 @@ class RunPlan:
 
 def plan_run(spec: str, decomposer: Callable[[str, str], list[str]] | None = None) -> RunPlan:
     """Resolve ``spec``: a suite id (``LHT1``, ``grasp-bottle``), a primitive task name of the suite
-    (``"grasp bottle"``), another primitive task name (a declared primitive, or objects no suite task has:
-    one step in the default scene), else a free instruction that ``decomposer`` turns into primitive task
-    names (called with the instruction and its scene, :func:`~taskcond.execution.kitchen.instruction_scene`).
+    (``"grasp bottle"``), another primitive task name on objects of its scene (a declared primitive, or
+    objects no suite task has: one step in the scene :func:`~taskcond.execution.kitchen.instruction_scene`
+    picks), else a free instruction that ``decomposer`` turns into primitive task names (called with the
+    instruction and its scene). A primitive task name on an object its scene lacks (``put the botle into
+    the box``) goes to ``decomposer`` when there is one: the LLM reads a misspelling as the object meant.
 
     Raises:
         ValueError: an empty or blank ``spec``; a free instruction without a decomposer.
@@ -142,12 +155,56 @@ def plan_run(spec: str, decomposer: Callable[[str, str], list[str]] | None = Non
     for info in list_tasks():
         if info.kind == "primitive" and info.task_name == name:
             return RunPlan(spec, info.id, (info.task_name,))
-    if name is not None:  # a primitive task the suite does not have (a declared primitive, other objects)
-        return RunPlan(spec, None, (name,))
+    scene = instruction_scene(spec)
+    if name is not None and (
+        decomposer is None or set(parse_task(name).objects) <= set(scene_objects(scene)[0])
+    ):
+        return RunPlan(spec, None, (name,), scene=scene)  # a primitive task the suite does not have
     if decomposer is None:
         raise ValueError(f"{spec!r} is neither a suite task id nor a primitive task of the suite")
-    scene = instruction_scene(spec)
     return RunPlan(spec, None, tuple(decomposer(spec, scene)), decomposed=True, scene=scene)
+
+
+def llm_decomposer(
+    llm: str | None = None, announce: Callable[[str], None] | None = None
+) -> Callable[[str, str], list[str]]:
+    """The ``decomposer`` of :func:`plan_run` with the LLM of ``llm`` (the ``--llm`` spec; answers cached):
+    an instruction that reads as one primitive task the scene cannot do is refused first
+    (:func:`refused_task`); ``announce`` is told the scene before the LLM is asked.
+
+    The decomposer raises DecompositionError (no valid plan, or refused) and LLMError."""
+    from taskcond.execution.decompose import DecompositionError, decompose
+    from taskcond.llm.config import LLMConfig, make_backend
+
+    backends: list[Any] = []
+
+    def decomposer(instruction: str, scene: str) -> list[str]:
+        objects, affords = scene_objects(scene)
+        refused = refused_task(instruction, objects, affords)
+        if refused is not None:
+            raise DecompositionError(f"{refused}; nothing was run")
+        if announce is not None:
+            announce(scene)
+        if not backends:
+            backends.append(make_backend(LLMConfig.load(llm)))
+        return decompose(instruction, backends[0], objects, affords)
+
+    return decomposer
+
+
+def instruction_plan(text: str, decomposer: Callable[[str, str], list[str]]) -> RunPlan:
+    """A benchmark instruction's plan: ``decomposer``'s (the LLM's) steps for it, even where its words name
+    one primitive task (``taskcond run`` runs "put the bottle into the box" as that suite task, which ends
+    holding the bottle; the benchmark asks the LLM, which writes the release a user means), run as a free
+    instruction in its scene and judged by its goal.
+
+    Raises:
+        ValueError: an empty instruction.
+    """
+    if not text.strip():
+        raise ValueError("empty instruction")
+    scene = instruction_scene(text)
+    return RunPlan(text, None, tuple(decomposer(text, scene)), decomposed=True, scene=scene)
 
 
 def refused_task(
@@ -192,9 +249,13 @@ class EpisodeResult:
         plan_seconds: wall-clock time of the planner (conditions it had to fetch included).
         repair: the planner's repair (:meth:`~taskcond.execution.planner.Repair.to_dict`), or None
             (``planner="none"``, no conditions, or the planner could not get a condition).
-        goal: the goal predicates (the suite task's post-conditions, or a free instruction's
-            :func:`~taskcond.execution.planner.goal_of` of its plan before repair).
+        goal: the goal predicates (the suite task's post-conditions; a free instruction's given goal, or
+            else :func:`~taskcond.execution.planner.goal_of` of its plan before repair).
         goal_missing: the goal predicates that do not hold at the end (ground truth).
+        plan_goal: with a given goal, the goal :func:`~taskcond.execution.planner.goal_of` derives from the
+            plan (what the plan itself claims to achieve); else empty.
+        plan_goal_held: whether every ``plan_goal`` predicate holds at the end (None without a given goal).
+        start: ``task`` or ``random`` (:data:`~taskcond.execution.kitchen.STARTS`).
         final_predicates: every relation and state that holds at the end (ground truth), sorted.
         events: the trace.
         conditions: task name → condition used (JSON form).
@@ -219,6 +280,9 @@ class EpisodeResult:
     repair: dict[str, Any] | None = None
     goal: list[str] = field(default_factory=list)
     goal_missing: list[str] = field(default_factory=list)
+    plan_goal: list[str] = field(default_factory=list)
+    plan_goal_held: bool | None = None
+    start: str = "task"
     final_predicates: list[str] = field(default_factory=list)
     events: list[dict[str, Any]] = field(default_factory=list)
     conditions: dict[str, Any] = field(default_factory=dict)
@@ -246,25 +310,29 @@ def run_episode(
     planner: str = "conditions",
     on_plan: Callable[[Repair | None, tuple[Predicate, ...]], None] | None = None,
     start_state: str = "task",
+    goal: tuple[Predicate, ...] | None = None,
 ) -> EpisodeResult:
     """Reset the plan's task with ``seed``, repair its steps with the planner (with conditions and
     ``planner="conditions"``), and execute them with ``method``. ``on_plan`` is told the repair and the
-    goal before anything moves. ``start_state="random"`` (a free instruction only) draws the start from
-    :func:`~taskcond.execution.kitchen.random_start`.
+    goal before anything moves. ``start_state="random"`` draws the start from
+    :func:`~taskcond.execution.kitchen.random_start` (a suite task keeps what its start needs,
+    :class:`~taskcond.execution.kitchen.RandomStart`). ``goal`` (a free instruction only) replaces the goal
+    derived from the plan as the success criterion; the derived one is recorded beside it.
 
     Raises:
-        ValueError: an unknown planner; a random start for a suite task.
+        ValueError: an unknown planner or start; a goal given for a suite task.
     """
     if planner not in PLANNERS:
         raise ValueError(f"unknown planner {planner!r}; valid: {', '.join(PLANNERS)}")
-    if start_state != "task" and plan.task_id is not None:
-        raise ValueError(
-            f"--start {start_state}: only a free instruction has one; suite task {plan.task_id} starts "
-            "from its own initial state"
-        )
+    if start_state not in STARTS:
+        raise ValueError(f"unknown start {start_state!r}; valid: {', '.join(STARTS)}")
+    if goal is not None and plan.task_id is not None:
+        raise ValueError(f"suite task {plan.task_id} has its own success check; a goal is for instructions")
     start = time.perf_counter()
     if plan.task_id is None:
         env = KitchenEnv(FreeTask(plan.label, plan.steps, plan.scene, start_state), gui=gui)
+    elif start_state == "random":
+        env = KitchenEnv(RandomStart(get_task(plan.task_id)), gui=gui)
     else:
         env = make(plan.task_id, gui=gui)
     recorder = VideoRecorder(video) if video is not None else None
@@ -281,7 +349,10 @@ def run_episode(
             except (ValueError, RuntimeError, OSError):
                 fixed = None  # a condition the source cannot give: the executor reports it on its step
         planning = time.perf_counter() - planning
-        goal = _goal(plan, env, conditions)
+        derived = _goal(plan, env, conditions)
+        given = goal is not None
+        plan_goal = derived if given else ()
+        goal = goal if goal is not None else derived
         if on_plan is not None:
             on_plan(fixed, goal)
         steps = plan.steps if fixed is None else fixed.steps
@@ -289,6 +360,7 @@ def run_episode(
             executor = Executor(world, library, method, source, config, on_event)
             result = executor.run(steps)
         missing = [str(q) for q in goal if not env.truth.holds(q)]
+        plan_goal_held = all(map(env.truth.holds, plan_goal)) if given else None
         if plan.task_id is None:
             success = result is not None and result.failure is None and not missing
         else:
@@ -330,6 +402,9 @@ def run_episode(
         repair=None if fixed is None else fixed.to_dict(),
         goal=[str(q) for q in goal],
         goal_missing=missing,
+        plan_goal=[str(q) for q in plan_goal],
+        plan_goal_held=plan_goal_held,
+        start=start_state,
         final_predicates=final,
         events=[] if result is None else [e.to_dict() for e in result.events],
         conditions={} if result is None else {k: v.to_dict() for k, v in result.conditions.items()},
@@ -454,15 +529,17 @@ def execution_config(
     execution: ExecutionConfig | None = None,
     planner: str = "conditions",
     start: str = "task",
+    instructions: Path | None = None,
     il_dir: Path | None = None,
     novel_primitive: bool = False,
 ) -> RunConfig:
     """The :class:`~taskcond.results.RunConfig` of episodes run with the skill library at ``library_dir``,
     perception noise ``noise``, LLM conditions from ``llm`` (the ``--llm`` spec; resolved as
     :func:`make_source` does), the executor constants ``execution`` (default ones when None), the plan
-    repair ``planner``, the start state ``start``, when the baseline runs, its checkpoint ``il_dir``
-    (``library_dir`` None: no episode uses the skill library), and whether each episode leaves out one
-    primitive's examples (``novel_primitive``, :func:`novel_primitive_source`).
+    repair ``planner``, the start state ``start``, the instructions file ``instructions`` (the
+    instruction benchmark), when the baseline runs, its checkpoint ``il_dir`` (``library_dir`` None: no
+    episode uses the skill library), and whether each episode leaves out one primitive's examples
+    (``novel_primitive``, :func:`novel_primitive_source`).
 
     Raises:
         LLMError: ``llm`` names no known backend or model.
@@ -475,6 +552,7 @@ def execution_config(
         execution=asdict(execution or ExecutionConfig()),
         planner=planner,
         start=start,
+        instructions=None if instructions is None else file_digest(instructions),
         il=directory_digest(il_dir) if il_dir is not None and il_dir.exists() else None,
         novel_primitive=novel_primitive,
         code=code_version(),
@@ -484,9 +562,10 @@ def execution_config(
 _WORKER: dict[str, Any] = {}
 
 
-WorkerArgs = tuple[str, str | None, float, str, str | None, bool]
-"""What a worker process needs: skill library directory, LLM spec, noise, planner, the baseline's
-checkpoint directory (None when it does not run), novel-primitive mode."""
+WorkerArgs = tuple[str, str | None, float, str, str, str | None, str | None, bool]
+"""What an evaluation's worker needs (:func:`_init_worker`): skill library directory, LLM spec, noise,
+planner, start, instructions file (None for suite tasks), the baseline's checkpoint directory (None when it
+does not run), novel-primitive mode."""
 
 
 def _init_worker(
@@ -494,17 +573,24 @@ def _init_worker(
     llm: str | None,
     noise: float,
     planner: str = "conditions",
+    start: str = "task",
+    instructions: str | None = None,
     il_dir: str | None = None,
     novel_primitive: bool = False,
 ) -> None:
+    from taskcond.instructions import load_instructions
+
     _WORKER.clear()
     _WORKER.update(
-        args=(library_dir, llm, noise, planner, il_dir, novel_primitive),
+        args=(library_dir, llm, noise, planner, start, instructions, il_dir, novel_primitive),
         library_dir=library_dir,
         llm=llm,
         noise=noise,
         sources={},
         planner=planner,
+        start=start,
+        instructions={} if instructions is None else {i.id: i for i in load_instructions(Path(instructions))},
+        decomposer=llm_decomposer(llm),
         il_dir=il_dir,
         novel_primitive=novel_primitive,
     )
@@ -581,10 +667,15 @@ def run_policy_episode(plan: RunPlan, seed: int, policy: Any, video: Path | None
 
 
 def _run_job(job: Job) -> dict[str, Any]:
-    """One episode as a results record; an exception is returned as a ``crashed`` record (not a
-    result: a resumed evaluation runs it again)."""
+    """One episode as a results record: a suite task, or with an instructions file the instruction of
+    that id (its plan from the LLM, judged by its goal; a plan the LLM cannot give is a failed episode,
+    ``decomposition``). An exception is returned as a ``crashed`` record (not a result: a resumed
+    evaluation runs it again)."""
+    from taskcond.execution.decompose import DecompositionError
+
     sources: dict[str, ConditionSource | None] = _WORKER["sources"]
     method: Method = job.method  # type: ignore[assignment]
+    instruction = _WORKER["instructions"].get(job.task)
     try:
         if job.method == IMAGE_IL:
             if "policy" not in _WORKER:
@@ -598,17 +689,28 @@ def _run_job(job: Job) -> dict[str, Any]:
         source, left_out = sources[method], None
         if _WORKER["novel_primitive"]:
             source, left_out = novel_primitive_source(source, job.task, job.seed)  # type: ignore[arg-type]
+        if instruction is None:
+            plan, goal, extra = plan_run(job.task), None, {}
+        else:
+            extra = {"task": instruction.id, "instruction": instruction.text}
+            try:
+                plan = instruction_plan(instruction.text, _WORKER["decomposer"])
+            except DecompositionError as exc:
+                return unplanned(job, instruction, str(exc), _WORKER["planner"], _WORKER["start"])
+            goal = instruction.goal
         result = run_episode(
-            plan_run(job.task),
+            plan,
             method,
             job.seed,
             library,
             source,
             _WORKER["noise"],
             planner=_WORKER["planner"],
+            start_state=_WORKER["start"],
+            goal=goal,
         )
         result.left_out = left_out
-        return result.summary()
+        return result.summary() | extra
     except Exception as exc:
         return {
             "task": job.task,
@@ -617,6 +719,27 @@ def _run_job(job: Job) -> dict[str, Any]:
             "crashed": True,
             "error": f"{type(exc).__name__}: {' '.join(str(exc).split())[:300]}",
         }
+
+
+def unplanned(job: Job, instruction: Any, reason: str, planner: str, start: str) -> dict[str, Any]:
+    """The record of an instruction episode that never ran: the LLM gave no valid plan (or the words name
+    a task the scene cannot do). A failure of the method, not a crash."""
+    return {
+        "task": instruction.id,
+        "instruction": instruction.text,
+        "method": job.method,
+        "seed": job.seed,
+        "success": False,
+        "failure": "decomposition",
+        "reason": reason,
+        "steps": [],
+        "planner": planner,
+        "start": start,
+        "goal": [str(q) for q in instruction.goal],
+        "goal_missing": [str(q) for q in instruction.goal],
+        "plan_goal": [],
+        "plan_goal_held": None,
+    }
 
 
 def run_job(job: Job, init_args: WorkerArgs) -> dict[str, Any]:
@@ -669,19 +792,30 @@ def evaluate(
     planner: str = "conditions",
     backend: str = "local",
     ray_address: str | None = None,
+    start: str = "task",
+    instructions: Path | None = None,
     il_dir: Path | None = None,
     novel_primitive: bool = False,
 ) -> list[dict[str, Any]]:
     """Run the jobs that ``results`` (the file of this configuration) does not hold yet with ``planner``
-    (the baseline's checkpoint ``il_dir`` for its jobs; each leaving out one primitive's examples with
-    ``novel_primitive``, :func:`novel_primitive_source`), appending each record as its episode ends;
-    returns every result of ``jobs``. Crashed episodes are appended marked ``crashed`` and are not
-    results: the next call runs them again."""
+    from ``start`` (a job's task an instruction id of the file ``instructions``, if given; the baseline's
+    checkpoint ``il_dir`` for its jobs; each leaving out one primitive's examples with ``novel_primitive``,
+    :func:`novel_primitive_source`), appending each record as its episode ends; returns every result of
+    ``jobs``. Crashed episodes are appended marked ``crashed`` and are not results: the next call runs
+    them again."""
     wanted = {j.key for j in jobs}
     done = results.done(Job.key_of)
     todo = [j for j in jobs if j.key not in done]
-    il = None if il_dir is None else str(il_dir)
-    args: WorkerArgs = (str(library_dir), llm, noise, planner, il, novel_primitive)
+    args: WorkerArgs = (
+        str(library_dir),
+        llm,
+        noise,
+        planner,
+        start,
+        None if instructions is None else str(instructions),
+        None if il_dir is None else str(il_dir),
+        novel_primitive,
+    )
     for rec in run_jobs(todo, args, workers, backend, ray_address):
         results.append(rec)
         if progress is not None:
@@ -739,8 +873,10 @@ __all__ = [
     "eval_task_ids",
     "evaluate",
     "execution_config",
+    "instruction_plan",
     "jobs_for",
     "left_out_primitive",
+    "llm_decomposer",
     "load_library",
     "load_policy",
     "make_source",
@@ -752,4 +888,5 @@ __all__ = [
     "run_jobs",
     "run_policy_episode",
     "summarize",
+    "unplanned",
 ]

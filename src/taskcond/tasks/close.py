@@ -24,11 +24,15 @@ class Close(PrimitiveTask):
     primitive_id = "close"
     max_steps = 400
 
-    def setup(self, env: KitchenEnv, rng: np.random.Generator) -> None:
+    def fixed_joints(self, env: KitchenEnv) -> dict[str, float]:
+        """The container open: drawers and box fully, the microwave door at :data:`DOOR_START`."""
         target = self.objects[0]
         joint = env.scene.joints[target]
-        fraction = DOOR_START / joint.open_position if target == "microwave" else 1.0
-        env.scene.set_joint(target, fraction)
+        return {target: DOOR_START / joint.open_position if target == "microwave" else 1.0}
+
+    def setup(self, env: KitchenEnv, rng: np.random.Generator) -> None:
+        for name, fraction in self.fixed_joints(env).items():
+            env.scene.set_joint(name, fraction)
 
     def post_conditions(self) -> tuple[Predicate, ...]:
         return (ContainerState(self.objects[0], False),)

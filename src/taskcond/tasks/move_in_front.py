@@ -23,6 +23,14 @@ class MoveInFront(PrimitiveTask):
     primitive_id = "move_in_front"
     max_steps = 300
 
+    def fixed_joints(self, env: KitchenEnv) -> dict[str, float]:
+        """A random start keeps B closed, and the drawers when B is the cabinet: an open door, lid or drawer
+        stands where A goes, and moves B's front face."""
+        b = self.objects[1]
+        if b == "cabinet":
+            return {name: 0.0 for name in env.scene.joints if name.endswith("drawer")}
+        return {b: 0.0} if b in env.scene.joints else {}
+
     def setup(self, env: KitchenEnv, rng: np.random.Generator) -> None:
         env.hold(self.objects[0], 0.03, grasp_of(env.scene, self.objects[0]))
 

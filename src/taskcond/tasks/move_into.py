@@ -56,6 +56,17 @@ class MoveInto(PrimitiveTask):
     primitive_id = "move_into"
     max_steps = 300
 
+    def fixed_joints(self, env: KitchenEnv) -> dict[str, float]:
+        """A random start keeps B open (fully), and when B is a drawer the other drawer closed: an open top
+        drawer covers the bottom one, an open bottom drawer stands under the hand going into the top one."""
+        b = self.objects[1]
+        if b not in env.scene.joints:
+            return {}
+        others = (
+            [n for n in env.scene.joints if n.endswith("drawer") and n != b] if b.endswith("drawer") else []
+        )
+        return {b: 1.0, **dict.fromkeys(others, 0.0)}
+
     def setup(self, env: KitchenEnv, rng: np.random.Generator) -> None:
         b = self.objects[1]
         if b in env.scene.joints:

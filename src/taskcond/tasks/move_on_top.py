@@ -25,6 +25,11 @@ class MoveOnTop(PrimitiveTask):
     primitive_id = "move_on_top"
     max_steps = 300
 
+    def fixed_joints(self, env: KitchenEnv) -> dict[str, float]:
+        """A random start keeps B closed when it is a container (an open lid is no top to stand on)."""
+        b = self.objects[1]
+        return {b: 0.0} if b in env.scene.joints else {}
+
     def setup(self, env: KitchenEnv, rng: np.random.Generator) -> None:
         env.hold(self.objects[0], 0.05, grasp_of(env.scene, self.objects[0]))
 
