@@ -6,6 +6,7 @@ console lines and the JSON trace of ``taskcond run`` are written here, not in th
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Any
@@ -120,15 +121,26 @@ class EventLog:
         )
 
     def primitive(
-        self, task: str, depth: int, skill: Skill, target_name: str | None, target: np.ndarray | None
+        self,
+        task: str,
+        depth: int,
+        skill: Skill,
+        target_name: str | None,
+        target: np.ndarray | None,
+        turn: float = 0.0,
     ) -> None:
+        """``turn``: rad the demonstration is turned about the target's vertical axis (a grasp from
+        another side); reported only when not 0."""
+        degrees = round(math.degrees(turn))
         self.emit(
             "primitive",
             task,
             depth,
             f"{task}: skill {skill.task_id} ({len(skill.segments)} DMP pieces)"
-            + (f", goal from {target_name} at {fmt_vector(target)}" if target is not None else ""),
-            {"skill": skill.task_id, "target": target_name, "target_center": json_vector(target)},
+            + (f", goal from {target_name} at {fmt_vector(target)}" if target is not None else "")
+            + (f", turned {degrees:+d}° about it (a neighbour is in the way)" if degrees else ""),
+            {"skill": skill.task_id, "target": target_name, "target_center": json_vector(target)}
+            | ({"turn_degrees": degrees} if degrees else {}),
         )
 
     def collision(

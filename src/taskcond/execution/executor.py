@@ -57,6 +57,7 @@ from dataclasses import dataclass
 from typing import Literal, Protocol
 
 import numpy as np
+from scipy.spatial.transform import Rotation
 
 from taskcond.conditions import (
     ContainerState,
@@ -69,7 +70,7 @@ from taskcond.conditions import (
 from taskcond.dmp import DMPParameters, DMPRollout
 from taskcond.execution.collisions import CollisionMonitor
 from taskcond.execution.events import Event, EventLog, fmt_items, fmt_vector
-from taskcond.execution.skills import Segment, Skill, SkillError, SkillLibrary, target_object
+from taskcond.execution.skills import Segment, Skill, SkillError, SkillLibrary, target_object, turned
 from taskcond.execution.world import Observation, Touch, World
 from taskcond.primitives import TaskNameError, parse_task, task_for_condition
 
@@ -91,7 +92,7 @@ class ExecutionError(RuntimeError):
         super().__init__(reason)
         self.kind = kind
         """Short failure class for statistics: ``unsatisfiable``, ``cycle``, ``timeout``, ``unreachable``,
-        ``no_skill``, ``not_perceived``, ``condition``, ``simulation``, ``bad_task``."""
+        ``no_skill``, ``not_perceived``, ``condition``, ``simulation``, ``bad_task``, ``fallen``."""
 
 
 class ConditionSource(Protocol):
@@ -118,6 +119,11 @@ class ExecutionConfig:
         settle_steps: control steps the last command is held after a primitive.
         speed_limit: largest planned approach speed, m/s; a longer approach than demonstrated is slowed
             to keep its average speed at or below the demonstration's and this.
+        hand: half length and half width (m) of the hand's footprint seen from above, along the axis the
+            fingers close on and across it (the Panda hand: a 0.20 × 0.06 m housing, the fingers inside
+            it); what a grasp's approach keeps clear of the objects around (:meth:`Executor._turn`).
+        clearance: gap (m) between the hand's footprint at a grasp's goal and the objects standing up
+            around it below which the grasp of a round object is turned to another side.
     """
 
     budget: float = 60.0
@@ -128,6 +134,8 @@ class ExecutionConfig:
     max_depth: int = 4
     settle_steps: int = 5
     speed_limit: float = 0.25
+    hand: tuple[float, float] = (0.105, 0.035)
+    clearance: float = 0.01
 
 
 @dataclass
@@ -163,12 +171,15 @@ class Aim:
         target_name: the object whose centre is goalPos (or ``"position"``); None for a primitive without a
             target, whose pieces move by their demonstrated offsets.
         target: (3,) the target's perceived centre, m, world frame; None without a target.
+        turn: rad about the world's vertical through the target's centre by which the skill's
+            demonstration is turned (:meth:`Executor._turn`); 0 as demonstrated.
     """
 
     task: str
     skill: Skill
     target_name: str | None
     target: np.ndarray | None
+    turn: float = 0.0
 
     @property
     def arms(self) -> int:
@@ -341,7 +352,7 @@ class Executor:
         obs = self.world.observe()
         aim = self._aim(task, obs)
         monitor = None if cond is None else CollisionMonitor.start(cond, obs, self.world.arms[: aim.arms])
-        self.log.primitive(task, depth, aim.skill, aim.target_name, aim.target)
+        self.log.primitive(task, depth, aim.skill, aim.target_name, aim.target, aim.turn)
         adjustments = 0
         for seg in aim.skill.segments:
             if self.world.time > deadline:
@@ -356,15 +367,26 @@ class Executor:
         """Alg. 2 lines 3–4: the target's perceived centre in ``obs`` (targetPos, the goalPos of a primitive
         with a target) and the skill for the end effector's pose relative to it.
 
+        A grasp of an object that fell over stops the run: every grasp skill is demonstrated on an upright
+        object, and re-grasps that cannot hold it would only spend the budget. A grasp of a round object
+        whose demonstrated approach would bring the hand against a neighbour comes from another side
+        (:meth:`_turn`).
+
         Raises:
-            ExecutionError: the target is not perceived, no skill fits, or the skill moves more arms than
-                the robot has.
+            ExecutionError: the target is not perceived or lies on its side (a grasp), no skill fits, or
+                the skill moves more arms than the robot has.
         """
         target_name = target_object(task)
         target = self.world.locate(target_name, obs) if target_name is not None else None
         if target_name is not None and target is None:
             raise ExecutionError(
                 f"{target_name!r} is not perceived; cannot aim {task!r} at it", "not_perceived"
+            )
+        grasp = parse_task(task).primitive.id == "grasp"
+        if grasp and target_name in obs.lying:
+            raise ExecutionError(
+                f"{target_name!r} fell over; no grasp skill holds it lying (each is demonstrated upright)",
+                "fallen",
             )
         here, here_q = self.world.ee_pose()
         try:
@@ -377,7 +399,71 @@ class Executor:
                 f"{len(self.world.arms)}",
                 "no_skill",
             )
-        return Aim(task, skill, target_name, target)
+        turn = 0.0
+        if grasp and target is not None and target_name in obs.round and skill.segments[0].anchor == "target":
+            turn = self._turn(skill, target_name, target, obs)
+        return Aim(task, skill, target_name, target, turn)
+
+    def _turn(self, skill: Skill, target_name: str, target: np.ndarray, obs: Observation) -> float:
+        """The side a grasp of the round object ``target_name`` (centre ``target`` (3,) m) comes from: the
+        demonstration turned by 0, ±π/2 or π rad about the object's vertical axis (a round object is held
+        the same from every side). The grasp pose is where the skill's pieces lead with the gripper still
+        open: the approach's goal plus the demonstrated displacements of the open-gripper pieces after it.
+        The demonstrated side (0) is kept unless the hand's footprint there (:attr:`ExecutionConfig.hand`,
+        along the finger axis of the demonstrated orientation at that pose, turned) comes nearer than
+        :attr:`ExecutionConfig.clearance` to the perceived box of anything standing above the fingertips
+        (an open drawer, a neighbouring bottle); then the reachable side with the largest clearance wins
+        (the demonstrated one on a tie). A hand housing against a neighbour cannot be repaired by Alg. 2's
+        goal shifts, which move the fingers off the wall they are to hold."""
+        arms = self.world.arms
+        others = [
+            (lo, hi) for name, (lo, hi) in obs.boxes.items() if name not in (target_name, "table", *arms)
+        ]
+        opened = []
+        for seg in skill.segments:
+            if seg.gripper >= 0.5:
+                break
+            opened.append(seg)
+        if not opened:
+            return 0.0
+        fingers = Rotation.from_quat(opened[-1].orientations[-1, :4]).apply([0.0, 1.0, 0.0])
+        half_length, half_width = self.config.hand
+        u = np.linspace(-1.0, 1.0, 9)[:, None, None] * half_length
+        v = np.linspace(-1.0, 1.0, 3)[None, :, None] * half_width
+
+        def grasp_point(turn: float) -> np.ndarray:
+            point = opened[0].goal(opened[0].dmp.y0, target, turn)
+            for seg in opened[1:]:
+                point = seg.goal(point, target, turn)
+            return point[:3]
+
+        def clearance(turn: float) -> tuple[int, float]:
+            """(− footprint samples inside a box, least gap m): larger is clearer."""
+            point = grasp_point(turn)
+            axis = turned(fingers, turn)[:2]
+            axis = axis / max(float(np.linalg.norm(axis)), 1e-9)
+            across = np.array([-axis[1], axis[0]])
+            points = (point[:2] + u * axis + v * across).reshape(-1, 2)
+            inside, gap = 0, np.inf
+            for lo, hi in others:
+                if hi[2] <= point[2]:
+                    continue
+                distance = np.linalg.norm(
+                    np.maximum(np.maximum(lo[:2] - points, points - hi[:2]), 0.0), axis=1
+                )
+                inside += int(np.count_nonzero(distance == 0.0))
+                gap = min(gap, float(distance.min()))
+            return -inside, gap
+
+        best, best_clearance = 0.0, clearance(0.0)
+        if best_clearance[1] >= self.config.clearance:
+            return 0.0
+        for turn in (math.pi / 2, -math.pi / 2, math.pi):
+            approach = opened[0].goal(opened[0].dmp.y0, target, turn)
+            reachable = all(self.world.reach_error(q) is None for q in (grasp_point(turn), approach))
+            if reachable and (score := clearance(turn)) > best_clearance:
+                best, best_clearance = turn, score
+        return best
 
     def _follow(
         self, seg: Segment, aim: Aim, monitor: CollisionMonitor | None, depth: int, adjustable: int
@@ -391,7 +477,7 @@ class Executor:
             ExecutionError: the piece's goal is out of reach, or the simulation fails.
         """
         start, start_q = self.world.ee_pose(aim.arms)
-        goal = seg.goal(start, aim.target)
+        goal = seg.goal(start, aim.target, aim.turn)
         reason = self.world.reach_error(goal)
         if reason is not None:
             raise ExecutionError(
@@ -399,7 +485,7 @@ class Executor:
             )
         rollout = self._gen_dmp(seg, start, goal)
         n = max(1, math.ceil(rollout.tau / self.world.dt - 1e-9))
-        orientations = seg.orientation(np.arange(n + 1) / n, start_q)
+        orientations = seg.orientation(np.arange(n + 1) / n, start_q, aim.turn)
         k = made = 0
         while k < n:
             position, _ = rollout.step(self.world.dt)

@@ -6,6 +6,7 @@ This is the only module of :mod:`taskcond.execution` that knows the simulator.
 
 from __future__ import annotations
 
+import math
 import time
 from collections.abc import Callable, Iterable
 from functools import cache
@@ -30,6 +31,7 @@ from taskcond.execution.sources import condition_from_environment
 from taskcond.execution.world import Observation, Touch
 from taskcond.grounding import DemoEvidence
 from taskcond.primitives import get_primitive, parse_task
+from taskcond.sim.assets import BottleSpec, VesselSpec
 from taskcond.sim.perception import EnvironmentInfo, Perception, PerceptionConfig
 from taskcond.sim.recording import VideoRecorder
 from taskcond.sim.scene import SceneConfig, dual_arm_config
@@ -50,11 +52,18 @@ KINOVA_STILL = 1e-4
 Franka-only demonstration: the Kinova held still."""
 
 
-def _observation(info: EnvironmentInfo) -> Observation:
+LYING = math.cos(math.radians(45.0))
+"""A free object whose upright axis has a world-z component below this (tilted more than 45°) lies."""
+
+
+def _observation(info: EnvironmentInfo, round_: frozenset[str], lying: frozenset[str]) -> Observation:
     return Observation(
         predicates=info.predicates,
         centers={name: box.center for name, box in info.boxes.items()},
         touches=tuple(Touch(c.a, c.b, c.position) for c in info.contacts),
+        boxes={name: (box.lower, box.upper) for name, box in info.boxes.items()},
+        round=round_,
+        lying=lying,
     )
 
 
@@ -99,6 +108,13 @@ class KitchenWorld:
         self._kinova_command: np.ndarray | None = None
         self._joints = tuple(env.scene.joints)
         self._interiors = tuple(env.scene.interiors)
+        self._round = frozenset(
+            name
+            for name, (spec, _) in env.scene.config.free_objects.items()
+            if isinstance(spec, BottleSpec | VesselSpec)
+        )
+        """Free objects of a turned-about-their-axis shape: cylinders (bottle, can) and vessels (bowl, mug:
+        held by the wall, which the mug's handle leaves free on most sides)."""
         self.env_seconds = 0.0
         self._observed: tuple[int, Observation] | None = None
         """Wall-clock seconds spent inside the environment's step (IK and physics)."""
@@ -119,8 +135,19 @@ class KitchenWorld:
         """Environment information now; repeated calls without a control step in between return the same
         observation (same noise draw), as a real robot's perception would until something moves."""
         if self._observed is None or self._observed[0] != self.env.steps:
-            self._observed = (self.env.steps, _observation(self.perception.observe(self._rng)))
+            info = self.perception.observe(self._rng)
+            self._observed = (self.env.steps, _observation(info, self._round, self._lying()))
         return self._observed[1]
+
+    def _lying(self) -> frozenset[str]:
+        """The free objects tilted more than 45° from upright (:data:`LYING`), from their poses."""
+        lying = []
+        for name in self.env.scene.free_objects:
+            _, orn = self.env.scene.pose(name)
+            up = p.getMatrixFromQuaternion(orn)[8]  # world z of the object's own z axis
+            if up < LYING:
+                lying.append(name)
+        return frozenset(lying)
 
     def touches(self) -> tuple[Touch, ...]:
         """Contacts of the arms (all of an arm's links are its gripper) and of whatever they touch with
@@ -228,6 +255,10 @@ near their nominal spots, containers closed, arms home); ``random``, :func:`rand
 RANDOM_AREA = ((0.22, 0.55), (-0.45, 0.35))
 """World x and y ranges (m) of the table area where :func:`random_start` places free objects: in front of
 the Franka (base at the origin), within about 0.7 m of it, where its demonstrations reach."""
+RANDOM_MIN_RADIUS = 0.28
+"""Least horizontal distance (m) of a randomly placed object's centre from the Franka's base axis (the
+origin): nearer, the hand cannot reach down to the table top (the elbow at its limit; the oracles' grasps
+of the bottle and the toothpaste fail at 0.24 m in front of the base and succeed from 0.27 m)."""
 RANDOM_CLEARANCE = 0.03
 """Least gap (m) between the footprints of a randomly placed object and anything else on the table."""
 RANDOM_TRIES = 200
@@ -237,9 +268,12 @@ def random_start(env: KitchenEnv, rng: np.random.Generator, fixed: dict[str, flo
     """A random start state: each articulated container (drawers, box, microwave) open or closed with
     probability 1/2 (a container of ``fixed`` at its given open fraction instead; the draw is made all the
     same, so that the rest of the scene does not depend on ``fixed``); then each free object, in the
-    scene's order, upright with a uniform yaw at a uniform spot of :data:`RANDOM_AREA` whose footprint
+    scene's order, upright with a uniform yaw at a uniform spot of :data:`RANDOM_AREA` at least
+    :data:`RANDOM_MIN_RADIUS` from the Franka's base whose footprint
     (its bounding rectangle at that yaw) keeps :data:`RANDOM_CLEARANCE` from the bounding boxes of the
-    containers and the cloth as they now stand and of the objects placed before it: rejection sampling,
+    containers both open and closed (an object in front of a closed drawer would keep it from opening, and
+    no primitive moves an object out of the way), of the cloth and of the objects placed before it:
+    rejection sampling,
     :data:`RANDOM_TRIES` draws per object, the whole placement drawn again (up to 20 times) when an object
     finds no spot. ``rng`` decides everything: the same seed gives the same scene.
 
@@ -248,11 +282,18 @@ def random_start(env: KitchenEnv, rng: np.random.Generator, fixed: dict[str, flo
     """
     scene = env.scene
     fixed = fixed or {}
+    standing = [n for n in scene.bodies if n not in scene.free_objects and n not in ("table", "cloth")]
+    boxes = []
+    for fraction in (1.0, 0.0):  # what every container covers open (its drawer out, lid up) and closed
+        for name in scene.joints:
+            scene.set_joint(name, fraction)
+        boxes += [(lo[:2], hi[:2]) for lo, hi in map(scene.aabb, standing)]
+        for joint in scene.joints.values():  # the moving part itself: a lid, a door
+            lo, hi = p.getAABB(joint.body_id, joint.joint_index, physicsClientId=scene.client)
+            boxes.append((np.array(lo[:2]), np.array(hi[:2])))
     for name in scene.joints:
         drawn = 1.0 if rng.random() < 0.5 else 0.0
         scene.set_joint(name, fixed.get(name, drawn))
-    fixed = [n for n in scene.bodies if n not in scene.free_objects and n not in ("table", "cloth")]
-    boxes = [(lo[:2], hi[:2]) for lo, hi in map(scene.aabb, fixed)]
     if scene.cloth is not None:
         nodes = scene.cloth_nodes()
         boxes.append((nodes.min(axis=0)[:2], nodes.max(axis=0)[:2]))
@@ -271,6 +312,8 @@ def random_start(env: KitchenEnv, rng: np.random.Generator, fixed: dict[str, flo
                 yaw = rng.uniform(-np.pi, np.pi)
                 cos, sin = abs(np.cos(yaw)), abs(np.sin(yaw))
                 extent = np.array([cos * hx + sin * hy, sin * hx + cos * hy]) + RANDOM_CLEARANCE
+                if np.hypot(*xy) < RANDOM_MIN_RADIUS:
+                    continue
                 if all(np.any(xy + extent <= lo) or np.any(xy - extent >= hi) for lo, hi in placed):
                     break
             else:
@@ -581,6 +624,7 @@ __all__ = [
     "CONTEXTS",
     "DUAL_ARM_WORDS",
     "RANDOM_AREA",
+    "RANDOM_MIN_RADIUS",
     "SCENES",
     "STARTS",
     "FreeTask",

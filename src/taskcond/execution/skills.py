@@ -121,12 +121,16 @@ class Segment:
         """Number of arms k the piece moves."""
         return self.dmp.n_dims // 3
 
-    def goal(self, start: np.ndarray, target_center: np.ndarray | None) -> np.ndarray:
+    def goal(self, start: np.ndarray, target_center: np.ndarray | None, turn: float = 0.0) -> np.ndarray:
         """Goal (3k,) of the piece started at ``start`` (3k,); the target's centre (3,) plus each arm's
-        offset for target anchors (Alg. 2, line 3); without one, the demonstrated displacement."""
+        offset for target anchors (Alg. 2, line 3); without one, the demonstrated displacement. ``turn``
+        (rad) turns the demonstration about the world's vertical through the target's centre: the offset,
+        and a relative piece's displacement, are turned by it (a grasp from another side of a round
+        object, :meth:`taskcond.execution.executor.Executor._turn`)."""
+        start = np.asarray(start, float)
         if self.anchor == "target" and target_center is not None:
-            return np.tile(np.asarray(target_center, float), self.arms) + self.offset
-        return self.dmp.displaced_goal(np.asarray(start, float))
+            return np.tile(np.asarray(target_center, float), self.arms) + turned(self.offset, turn)
+        return start + turned(self.dmp.goal - self.dmp.y0, turn)
 
     @cached_property
     def _profiles(self) -> list[Slerp]:
@@ -139,9 +143,10 @@ class Segment:
                 profiles.append(Slerp(np.linspace(0.0, 1.0, len(quats)), Rotation.from_quat(quats)))
         return profiles
 
-    def orientation(self, fraction: float | np.ndarray, start: np.ndarray) -> np.ndarray:
+    def orientation(self, fraction: float | np.ndarray, start: np.ndarray, turn: float = 0.0) -> np.ndarray:
         """Orientations xyzw of the k arms at ``fraction`` ∈ [0, 1] of the piece ((4k,), or (m, 4k) for m
-        fractions) when it started at orientations ``start`` (4k,).
+        fractions) when it started at orientations ``start`` (4k,); ``turn`` (rad, about the world's
+        vertical) turns the demonstrated profile as :meth:`goal` turns the offset.
 
         The demonstrated profile R_d(s) of each arm is carried over as ``Δ(s) R_d(s)``. For a relative
         piece Δ is the constant world-frame rotation between the new and the demonstrated start; for the
@@ -154,10 +159,11 @@ class Segment:
         u = np.atleast_1d(s)
         weight = 1.0 - u * u * (3 - 2 * u) if self.anchor == "target" else np.ones_like(u)
         start = np.asarray(start, float)
+        spin = Rotation.from_rotvec([0.0, 0.0, turn])
         arms = []
         for arm, profile in enumerate(self._profiles):
             here = Rotation.from_quat(start[4 * arm : 4 * arm + 4])
-            first = Rotation.from_quat(self.orientations[0, 4 * arm : 4 * arm + 4])
+            first = spin * Rotation.from_quat(self.orientations[0, 4 * arm : 4 * arm + 4])
             twin = (
                 HALF_TURN
                 if (here.inv() * first * HALF_TURN).magnitude() < (here.inv() * first).magnitude()
@@ -165,10 +171,19 @@ class Segment:
             )
             offset = (here * (first * twin).inv()).as_rotvec()
             arms.append(
-                (Rotation.from_rotvec(weight[:, None] * offset[None, :]) * profile(u) * twin).as_quat()
+                (Rotation.from_rotvec(weight[:, None] * offset[None, :]) * spin * profile(u) * twin).as_quat()
             )
         quats = np.concatenate(arms, axis=1)
         return quats if s.ndim else quats[0]
+
+
+def turned(vectors: np.ndarray, turn: float) -> np.ndarray:
+    """(3k,) stacked 3-vectors turned by ``turn`` rad about the world's vertical."""
+    if turn == 0.0:
+        return np.asarray(vectors, float)
+    c, s = np.cos(turn), np.sin(turn)
+    v = np.asarray(vectors, float).reshape(-1, 3)
+    return np.column_stack([c * v[:, 0] - s * v[:, 1], s * v[:, 0] + c * v[:, 1], v[:, 2]]).reshape(-1)
 
 
 HALF_TURN = Rotation.from_rotvec([0.0, 0.0, np.pi])
@@ -435,4 +450,5 @@ __all__ = [
     "learn_skill",
     "split_points",
     "target_object",
+    "turned",
 ]

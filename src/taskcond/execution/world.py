@@ -8,7 +8,7 @@ would implement the same few methods.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Protocol
 
 import numpy as np
@@ -37,11 +37,20 @@ class Observation:
         predicates: every relation and object state that holds now, in the condition vocabulary.
         centers: object name → centre (3,), metres, world frame (possibly noisy).
         touches: bodies in contact now.
+        boxes: object name → its axis-aligned bounding box as (lower (3,), upper (3,)) corners, metres,
+            world frame (possibly noisy); what a grasp's approach must keep clear of.
+        round: the free objects that look the same turned about their vertical axis (a bottle, a bowl):
+            a grasp of one may come from any side.
+        lying: the free objects that fell over (their upright axis tilted more than 45°): a grasp
+            demonstrated on an upright object cannot hold them.
     """
 
     predicates: frozenset[Predicate]
     centers: dict[str, np.ndarray]
     touches: tuple[Touch, ...]
+    boxes: dict[str, tuple[np.ndarray, np.ndarray]] = field(default_factory=dict)
+    round: frozenset[str] = frozenset()
+    lying: frozenset[str] = frozenset()
 
     def holds(self, predicate: Predicate) -> bool:
         return predicate in self.predicates
