@@ -19,7 +19,7 @@ from taskcond.conditions import (
 )
 from taskcond.dmp import rollout
 from taskcond.execution.collisions import CollisionMonitor, Landing, allowed_for_arms, landings
-from taskcond.execution.decompose import DecompositionError, parse_plan
+from taskcond.execution.decompose import DecompositionError, parse_plan, with_releases
 from taskcond.execution.skills import (
     HALF_TURN,
     Demonstration,
@@ -216,6 +216,25 @@ def test_env_conditions_are_renamed_to_the_task_objects() -> None:
     assert cond.task_name == "grasp mug"
     assert cond.post_conditions == (GripperState("mug"),)
     assert cond.collisions == (Collision("gripper", "mug"),)
+
+
+def test_a_moved_object_is_released_after_its_last_move_unless_a_later_step_handles_it() -> None:
+    assert with_releases(["grasp mug", "move mug on top of box"]) == [
+        "grasp mug",
+        "move mug on top of box",
+        "release mug",
+    ]
+    assert with_releases(["grasp bottle", "move bottle into box", "close box"]) == [
+        "grasp bottle",
+        "move bottle into box",
+        "release bottle",
+        "close box",
+    ]
+    kept = ["grasp bottle", "move bottle into box", "release bottle", "close box"]
+    assert with_releases(kept) == kept
+    assert with_releases(["grasp mug", "tilt mug"]) == ["grasp mug", "tilt mug"]
+    moved_on = ["grasp mug", "move mug in front of box", "move mug on top of box", "release mug"]
+    assert with_releases(moved_on) == moved_on
 
 
 def test_parse_plan_accepts_numbered_lines_and_rejects_unknown_objects() -> None:

@@ -5,6 +5,8 @@ The prompt (``prompts/<version>/decompose.txt``) lists the primitive task forms 
 :data:`taskcond.primitives.PRIMITIVES` and the scene's objects, with three of the paper's long-horizon
 tasks as examples. Every answer line must parse as a primitive task (:func:`taskcond.primitives.parse_task`)
 on objects of the scene; an invalid answer is shown its error and asked again, a bounded number of times.
+The prompt's rule "grasp an object before moving it, release it after" is then enforced on the release
+(:func:`with_releases`): a small model often ends "put the mug on the box" holding the mug.
 """
 
 from __future__ import annotations
@@ -62,6 +64,26 @@ def parse_plan(
     return tasks
 
 
+PLACES = frozenset({"move", "move_on_top", "move_into", "move_in_front"})
+"""Primitives that carry an object to a place; the prompt says the object is released after."""
+
+
+def with_releases(tasks: Sequence[str]) -> list[str]:
+    """``tasks`` (canonical primitive task names) with ``release A`` right after the last move of each A
+    (:data:`PLACES`) that no later task releases, moves, tilts or grasps again (the prompt's rule that an
+    object is released after it is moved); the gripper's last move of an object then leaves it there."""
+    plan = list(tasks)
+    for index in range(len(plan) - 1, -1, -1):
+        task = parse_task(plan[index])
+        if task.primitive.id not in PLACES:
+            continue
+        obj = task.objects[0]
+        later = [parse_task(t) for t in plan[index + 1 :]]
+        if not any(t.objects[:1] == (obj,) and t.primitive.movable for t in later):
+            plan.insert(index + 1, parse_task(f"release {obj}").name)
+    return plan
+
+
 def _part_of(name: str, objects: Sequence[str]) -> str:
     """The scene object that ``name`` names by one of its parts (``microwave door``, ``box lid``: the one
     object of ``objects`` that ``name`` starts or ends with as whole words), else ``name``."""
@@ -79,7 +101,7 @@ def decompose(
     max_retries: int = 2,
     version: str = "v1",
 ) -> list[str]:
-    """Ask the LLM for the primitive tasks of ``instruction`` in order.
+    """Ask the LLM for the primitive tasks of ``instruction`` in order (:func:`with_releases` added).
 
     Raises:
         DecompositionError: no valid plan within ``1 + max_retries`` answers (the last error is given).
@@ -98,7 +120,7 @@ def decompose(
             )
         )
         try:
-            return parse_plan(response.text, objects, affords)
+            return with_releases(parse_plan(response.text, objects, affords))
         except DecompositionError as exc:
             error = str(exc)
             messages += [
@@ -108,4 +130,4 @@ def decompose(
     raise DecompositionError(f"no valid plan for {instruction!r}: {error}")
 
 
-__all__ = ["DecompositionError", "LLMError", "decompose", "parse_plan"]
+__all__ = ["PLACES", "DecompositionError", "LLMError", "decompose", "parse_plan", "with_releases"]
