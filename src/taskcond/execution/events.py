@@ -128,19 +128,24 @@ class EventLog:
         target_name: str | None,
         target: np.ndarray | None,
         turn: float = 0.0,
+        aside: np.ndarray | None = None,
     ) -> None:
         """``turn``: rad the demonstration is turned about the target's vertical axis (a grasp from
-        another side); reported only when not 0."""
+        another side); ``aside``: (3,) m the place was moved from the demonstrated spot; each reported only
+        when not 0."""
         degrees = round(math.degrees(turn))
+        moved = aside is not None and bool(np.any(aside))
         self.emit(
             "primitive",
             task,
             depth,
             f"{task}: skill {skill.task_id} ({len(skill.segments)} DMP pieces)"
             + (f", goal from {target_name} at {fmt_vector(target)}" if target is not None else "")
-            + (f", turned {degrees:+d}° about it (a neighbour is in the way)" if degrees else ""),
+            + (f", turned {degrees:+d}° about it (a neighbour is in the way)" if degrees else "")
+            + (f", {fmt_vector(aside)} aside of the demonstrated spot (taken)" if moved else ""),
             {"skill": skill.task_id, "target": target_name, "target_center": json_vector(target)}
-            | ({"turn_degrees": degrees} if degrees else {}),
+            | ({"turn_degrees": degrees} if degrees else {})
+            | ({"aside": json_vector(aside)} if moved else {}),
         )
 
     def collision(

@@ -173,6 +173,8 @@ class Aim:
         target: (3,) the target's perceived centre, m, world frame; None without a target.
         turn: rad about the world's vertical through the target's centre by which the skill's
             demonstration is turned (:meth:`Executor._turn`); 0 as demonstrated.
+        aside: (3,) m the goal is moved horizontally from the demonstrated spot on top of the target
+            (:meth:`Executor._aside`), already added to ``target``; zero as demonstrated.
     """
 
     task: str
@@ -180,6 +182,7 @@ class Aim:
     target_name: str | None
     target: np.ndarray | None
     turn: float = 0.0
+    aside: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(3))
 
     @property
     def arms(self) -> int:
@@ -352,7 +355,7 @@ class Executor:
         obs = self.world.observe()
         aim = self._aim(task, obs)
         monitor = None if cond is None else CollisionMonitor.start(cond, obs, self.world.arms[: aim.arms])
-        self.log.primitive(task, depth, aim.skill, aim.target_name, aim.target, aim.turn)
+        self.log.primitive(task, depth, aim.skill, aim.target_name, aim.target, aim.turn, aim.aside)
         adjustments = 0
         for seg in aim.skill.segments:
             if self.world.time > deadline:
@@ -402,7 +405,61 @@ class Executor:
         turn = 0.0
         if grasp and target is not None and target_name in obs.round and skill.segments[0].anchor == "target":
             turn = self._turn(skill, target_name, target, obs)
-        return Aim(task, skill, target_name, target, turn)
+        aside = np.zeros(3)
+        if parse_task(task).primitive.id == "move_on_top" and target is not None and target_name is not None:
+            aside = self._aside(skill, target_name, target, obs)
+        return Aim(task, skill, target_name, None if target is None else target + aside, turn, aside)
+
+    def _aside(self, skill: Skill, target_name: str, target: np.ndarray, obs: Observation) -> np.ndarray:
+        """Where on top of ``target_name`` (centre ``target`` (3,) m) the carried object goes: the
+        demonstrated spot (the skill's end: the approach's goal plus the later pieces' displacements), or
+        when the carried object's footprint there (its perceived box, carried with the hand) comes nearer
+        than :attr:`ExecutionConfig.clearance` to another object's box, the nearest spot that is clear, in
+        steps of 2 cm up to 20 cm in 16 directions, with the object's centre still over ``target_name``'s
+        box and the hand's goals within reach. Returns the horizontal shift (3,) m of the goal (zero when
+        nothing is clear either). A table's demonstrated spot is where the demonstration's scene had room,
+        not where a random scene has."""
+        zero = np.zeros(3)
+        carried = obs.grasped()
+        if carried is None or carried not in obs.boxes or target_name not in obs.boxes:
+            return zero
+        first = skill.segments[0]
+        if first.anchor != "target":
+            return zero
+        end = first.goal(first.dmp.y0, target)
+        for seg in skill.segments[1:]:
+            end = seg.goal(end, target)
+        here, _ = self.world.ee_pose()
+        lo, hi = obs.boxes[carried]
+        foot = (lo[:2] - here[:2] + end[:2], hi[:2] - here[:2] + end[:2])
+        middle = (obs.centers.get(carried, (lo + hi) / 2)[:2] - here[:2]) + end[:2]
+        skip = (target_name, carried, "table", *self.world.arms)
+        others = [(a[:2], b[:2]) for name, (a, b) in obs.boxes.items() if name not in skip]
+        support_lo, support_hi = (b[:2] for b in obs.boxes[target_name])
+
+        def gap(shift: np.ndarray) -> float:
+            flo, fhi = foot[0] + shift, foot[1] + shift
+            return min(
+                (float(np.linalg.norm(np.maximum(np.maximum(a - fhi, flo - b), 0.0))) for a, b in others),
+                default=np.inf,
+            )
+
+        if gap(np.zeros(2)) >= self.config.clearance:
+            return zero
+        angles = np.linspace(0.0, 2 * math.pi, 16, endpoint=False)
+        for radius in np.arange(0.02, 0.201, 0.02):
+            best, best_gap = None, self.config.clearance
+            for angle in angles:
+                shift = radius * np.array([math.cos(angle), math.sin(angle)])
+                inside = np.all(middle + shift >= support_lo) and np.all(middle + shift <= support_hi)
+                if not inside or (g := gap(shift)) < best_gap:
+                    continue
+                goals = [first.goal(first.dmp.y0, target), end]
+                if all(self.world.reach_error(q + np.array([*shift, 0.0])) is None for q in goals):
+                    best, best_gap = shift, g
+            if best is not None:
+                return np.array([*best, 0.0])
+        return zero
 
     def _turn(self, skill: Skill, target_name: str, target: np.ndarray, obs: Observation) -> float:
         """The side a grasp of the round object ``target_name`` (centre ``target`` (3,) m) comes from: the
