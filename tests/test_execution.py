@@ -20,6 +20,7 @@ from taskcond.conditions import (
 from taskcond.dmp import rollout
 from taskcond.execution.collisions import CollisionMonitor, Landing, allowed_for_arms, landings
 from taskcond.execution.decompose import DecompositionError, parse_plan, with_releases
+from taskcond.execution.executor import _part_way
 from taskcond.execution.skills import (
     HALF_TURN,
     Demonstration,
@@ -360,3 +361,20 @@ def test_a_piece_keeps_the_half_turn_twin_of_its_orientation_nearest_the_start()
     near = first * Rotation.from_rotvec([0.0, 0.0, 0.1])
     arrived = Rotation.from_quat(approach.orientation(1.0, near.as_quat()))
     assert_allclose((arrived.inv() * end).magnitude(), 0.0, atol=1e-6)
+
+
+def test_a_container_left_part_way_is_not_opened_again_before_closing_it_again() -> None:
+    """A retry of ``close top drawer`` whose first attempt left the drawer neither open nor closed keeps
+    going from there instead of raising ``open top drawer`` (a cycle); a drawer still open keeps the
+    pre-condition."""
+    cond = TaskCondition(
+        "close top drawer",
+        ("top drawer", "gripper"),
+        (ContainerState("top drawer", True), GripperState(None)),
+        (ContainerState("top drawer", False), GripperState(None)),
+        (),
+    )
+    part_way = Observation(frozenset({GripperState(None)}), {}, ())
+    assert _part_way(cond, part_way).pre_conditions == (GripperState(None),)
+    still_open = Observation(frozenset({GripperState(None), ContainerState("top drawer", True)}), {}, ())
+    assert _part_way(cond, still_open) is cond

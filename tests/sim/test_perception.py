@@ -373,8 +373,13 @@ def test_unnamed_links_belong_to_their_named_ancestor(client: int) -> None:
 
 
 # -------------------------------------------------------------------------------------- object states
-@pytest.mark.parametrize(("position", "is_open"), [(0.0, False), (0.12, False), (0.13, True), (0.25, True)])
-def test_container_state_follows_the_joint(client: int, position: float, is_open: bool) -> None:
+@pytest.mark.parametrize(
+    ("position", "is_open"),
+    [(0.0, False), (0.02, False), (0.03, None), (0.12, None), (0.13, True), (0.25, True)],
+)
+def test_container_state_follows_the_joint(client: int, position: float, is_open: bool | None) -> None:
+    """Closed within 8% of the range from closed (the judge's rule), open from half of it, neither between:
+    a drawer pushed half shut is not taken for closed."""
     cabinet = add_cabinet(client, (0.6, 0.0, 0.15))
     bowl = add_cylinder(client, 0.05, 0.05, (0.6, 0.0, 0.325))
     p.resetJointState(cabinet, 0, position, physicsClientId=client)
@@ -389,7 +394,8 @@ def test_container_state_follows_the_joint(client: int, position: float, is_open
     )
     info = Perception(scene, PerceptionConfig(check_visibility=False)).observe(0)
     states = {pred for pred in info.predicates if isinstance(pred, ContainerState)}
-    assert states == {ContainerState("drawer", is_open), ContainerState("bowl", True)}
+    drawer = set() if is_open is None else {ContainerState("drawer", is_open)}
+    assert states == {*drawer, ContainerState("bowl", True)}
 
 
 def add_lidded_box(client: int) -> int:
@@ -436,7 +442,7 @@ def test_revolute_lid_opens_the_box_without_growing_it(client: int) -> None:
         opened = perception.observe(0)
         assert ContainerState("box", True) in opened.predicates
         assert opened.boxes["box"].upper[2] == pytest.approx(0.1, abs=0.008)  # ... but is not the box
-        p.resetJointState(lidded, 0, 0.5, physicsClientId=client)
+        p.resetJointState(lidded, 0, 0.1, physicsClientId=client)  # within 8% of closed
         assert ContainerState("box", False) in perception.observe(0).predicates
 
 

@@ -281,7 +281,7 @@ class Executor:
             if attempt > 0 and (undo := _undoing(cond, obs)):
                 self.log.not_retried(task, depth, undo, missing, attempt)
                 return
-            self.satisfy(cond, (*stack, task), depth, deadline)
+            self.satisfy(cond if attempt == 0 else _part_way(cond, obs), (*stack, task), depth, deadline)
             self.control(task, cond, depth, deadline)
             missing = _missing(cond.post_conditions, self.world.observe())
             if _achieved(cond, missing):
@@ -724,6 +724,24 @@ def _undoing(cond: TaskCondition, obs: Observation) -> tuple[Predicate, Predicat
             if isinstance(p, ContainerState) and isinstance(q, ContainerState) and p.container == q.container:
                 return p, q
     return None
+
+
+def _part_way(cond: TaskCondition, obs: Observation) -> TaskCondition:
+    """``cond`` for another attempt: without a container pre-condition (``drawer open``) whose container
+    the post-conditions change (``drawer closed``) and which ``obs`` shows neither open nor closed. The
+    last attempt left it part of the way; the primitive goes on from there, where satisfying the
+    pre-condition would raise the opposite primitive (a cycle)."""
+
+    def part_way(pred: Predicate) -> bool:
+        return (
+            isinstance(pred, ContainerState)
+            and ContainerState(pred.container, not pred.is_open) in cond.post_conditions
+            and not obs.holds(pred)
+            and not obs.holds(ContainerState(pred.container, not pred.is_open))
+        )
+
+    pre = tuple(q for q in cond.pre_conditions if not part_way(q))
+    return cond if len(pre) == len(cond.pre_conditions) else dataclasses.replace(cond, pre_conditions=pre)
 
 
 def _about_gripper_place(pred: Predicate) -> bool:

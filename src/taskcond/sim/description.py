@@ -43,6 +43,9 @@ class ContainerJoint:
             fully closed and fully open container.
         open_fraction: the container counts as open once it has moved this fraction of the way from
             closed to open.
+        closed_fraction: it counts as closed within this fraction of its range from closed (the suite's
+            judge's rule, :data:`taskcond.tasks.groundtruth.CLOSED_FRACTION`); in between it is neither,
+            so that a drawer pushed half shut is not taken for closed.
     """
 
     name: str
@@ -51,6 +54,7 @@ class ContainerJoint:
     closed_position: float
     open_position: float
     open_fraction: float = 0.5
+    closed_fraction: float = 0.08
 
 
 @dataclass(frozen=True)

@@ -443,12 +443,14 @@ class Perception:
         return None
 
     def _container_states(self) -> list[ContainerState]:
-        """Open/closed from each container joint's position; open vessels are always open."""
+        """Open/closed from each container joint's position (neither between the joint's closed and open
+        fractions); open vessels are always open."""
         states = [ContainerState(name, True) for name in self._vessels]
         for joint in self.scene.containers:
             q = p.getJointState(joint.body_id, joint.joint_index, physicsClientId=self._client)[0]
             fraction = (q - joint.closed_position) / (joint.open_position - joint.closed_position)
-            states.append(ContainerState(joint.name, bool(fraction >= joint.open_fraction)))
+            if fraction >= joint.open_fraction or fraction <= joint.closed_fraction:
+                states.append(ContainerState(joint.name, bool(fraction >= joint.open_fraction)))
         return states
 
 
