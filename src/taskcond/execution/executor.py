@@ -122,8 +122,9 @@ class ExecutionConfig:
         hand: half length and half width (m) of the hand's footprint seen from above, along the axis the
             fingers close on and across it (the Panda hand: a 0.20 × 0.06 m housing, the fingers inside
             it); what a grasp's approach keeps clear of the objects around (:meth:`Executor._turn`).
-        clearance: gap (m) between the hand's footprint at a grasp's goal and the objects standing up
-            around it below which the grasp of a round object is turned to another side.
+        clearance: depth (m) by which the hand's footprint at a grasp's goal may reach into the box of an
+            object standing up beside it before the grasp of a round object is turned to another side;
+            also the least gap (m) :meth:`Executor._aside` keeps around a placed object.
     """
 
     budget: float = 60.0
@@ -467,11 +468,12 @@ class Executor:
         the same from every side). The grasp pose is where the skill's pieces lead with the gripper still
         open: the approach's goal plus the demonstrated displacements of the open-gripper pieces after it.
         The demonstrated side (0) is kept unless the hand's footprint there (:attr:`ExecutionConfig.hand`,
-        along the finger axis of the demonstrated orientation at that pose, turned) comes nearer than
-        :attr:`ExecutionConfig.clearance` to the perceived box of anything standing above the fingertips
-        (an open drawer, a neighbouring bottle); then the reachable side with the largest clearance wins
-        (the demonstrated one on a tie). A hand housing against a neighbour cannot be repaired by Alg. 2's
-        goal shifts, which move the fingers off the wall they are to hold."""
+        along the finger axis of the demonstrated orientation at that pose, turned) reaches more than
+        :attr:`ExecutionConfig.clearance` into the perceived box of anything standing above the fingertips
+        (an open drawer, a neighbouring bottle; a grazed corner is left to Alg. 2, as demonstrations near
+        such neighbours succeed); then the reachable side that reaches least into a box, and then keeps
+        the largest gap, wins (the demonstrated one on a tie). A hand housing against a neighbour cannot be
+        repaired by Alg. 2's goal shifts, which move the fingers off the wall they are to hold."""
         arms = self.world.arms
         others = [
             (lo, hi) for name, (lo, hi) in obs.boxes.items() if name not in (target_name, "table", *arms)
@@ -494,26 +496,25 @@ class Executor:
                 point = seg.goal(point, target, turn)
             return point[:3]
 
-        def clearance(turn: float) -> tuple[int, float]:
-            """(− footprint samples inside a box, least gap m): larger is clearer."""
+        def clearance(turn: float) -> tuple[float, float]:
+            """(− deepest reach of a footprint sample into a box, least gap), metres: larger is clearer."""
             point = grasp_point(turn)
             axis = turned(fingers, turn)[:2]
             axis = axis / max(float(np.linalg.norm(axis)), 1e-9)
             across = np.array([-axis[1], axis[0]])
             points = (point[:2] + u * axis + v * across).reshape(-1, 2)
-            inside, gap = 0, np.inf
+            depth, gap = 0.0, np.inf
             for lo, hi in others:
                 if hi[2] <= point[2]:
                     continue
-                distance = np.linalg.norm(
-                    np.maximum(np.maximum(lo[:2] - points, points - hi[:2]), 0.0), axis=1
-                )
-                inside += int(np.count_nonzero(distance == 0.0))
-                gap = min(gap, float(distance.min()))
-            return -inside, gap
+                outside = np.maximum(np.maximum(lo[:2] - points, points - hi[:2]), 0.0)
+                gap = min(gap, float(np.linalg.norm(outside, axis=1).min()))
+                inner = np.minimum(points - lo[:2], hi[:2] - points).min(axis=1)
+                depth = max(depth, float(inner.max(initial=0.0)))
+            return -depth, gap
 
         best, best_clearance = 0.0, clearance(0.0)
-        if best_clearance[1] >= self.config.clearance:
+        if -best_clearance[0] <= self.config.clearance:
             return 0.0
         for turn in (math.pi / 2, -math.pi / 2, math.pi):
             approach = opened[0].goal(opened[0].dmp.y0, target, turn)
