@@ -108,3 +108,23 @@ def test_a_fallen_object_stops_the_run_with_one_line_instead_of_regrasping(libra
         assert not [e for e in result.events if e.kind == "primitive"]  # not one grasp tried
     finally:
         env.close()
+
+
+def test_a_place_on_top_demonstrated_with_another_object_holds_this_one_above_the_top() -> None:
+    """The only demonstration of a move on top of the box carries the flat spatula low; the mug held by
+    its wall would end inside the box's top, so the goal is raised by the difference (and the box
+    stays closed: nothing pushes the mug into it)."""
+    library = learn_library(None, ["grasp-mug", "move_on_top-spatula-box"])
+    env, world = _scene({"mug": (0.40, 0.05)})
+    try:
+        executor = Executor(world, library, method="env", source=EnvConditions(library))
+        assert executor.run(["grasp mug"]).completed and world.observe().grasped() == "mug"
+        aim = executor._aim("move mug on top of box", world.observe())
+        assert aim.skill.task_id == "move_on_top-spatula-box"
+        assert aim.aside[2] > 0.03 and not np.any(aim.aside[:2])
+        Executor(world, library, method="none").run(["move mug on top of box"])  # no FromEnv artefacts
+        obs = world.observe()
+        lo = obs.boxes["mug"][0]
+        assert lo[2] > obs.boxes["box"][1][2] - 0.005  # held above the lid, not pushed into it
+    finally:
+        env.close()

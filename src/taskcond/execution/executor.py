@@ -417,8 +417,11 @@ class Executor:
         when the carried object's footprint there (its perceived box, carried with the hand) comes nearer
         than :attr:`ExecutionConfig.clearance` to another object's box, the nearest spot that is clear, in
         steps of 2 cm up to 20 cm in 16 directions, with the object's centre still over ``target_name``'s
-        box and the hand's goals within reach. Returns the horizontal shift (3,) m of the goal (zero when
-        nothing is clear either). A table's demonstrated spot is where the demonstration's scene had room,
+        box and the hand's goals within reach. When the carried object's bottom would end more than
+        :data:`PLACE_ABOVE` below the top of ``target_name``'s box, the goal is raised to put it that much
+        above instead: a skill demonstrated with another object (``move_on_top-spatula-box`` for the mug)
+        holds it at another height. Returns the shift (3,) m of the goal (zero when the demonstrated spot
+        is clear and high enough). A table's demonstrated spot is where the demonstration's scene had room,
         not where a random scene has."""
         zero = np.zeros(3)
         carried = obs.grasped()
@@ -437,6 +440,8 @@ class Executor:
         skip = (target_name, carried, "table", *self.world.arms)
         others = [(a[:2], b[:2]) for name, (a, b) in obs.boxes.items() if name not in skip]
         support_lo, support_hi = (b[:2] for b in obs.boxes[target_name])
+        below = float(obs.boxes[target_name][1][2] - (end[2] - here[2] + lo[2]))
+        lift = below + PLACE_ABOVE if below > PLACE_ABOVE else 0.0
 
         def gap(shift: np.ndarray) -> float:
             flo, fhi = foot[0] + shift, foot[1] + shift
@@ -446,7 +451,7 @@ class Executor:
             )
 
         if gap(np.zeros(2)) >= self.config.clearance:
-            return zero
+            return np.array([0.0, 0.0, lift])
         angles = np.linspace(0.0, 2 * math.pi, 16, endpoint=False)
         for radius in np.arange(0.02, 0.201, 0.02):
             best, best_gap = None, self.config.clearance
@@ -456,11 +461,11 @@ class Executor:
                 if not inside or (g := gap(shift)) < best_gap:
                     continue
                 goals = [first.goal(first.dmp.y0, target), end]
-                if all(self.world.reach_error(q + np.array([*shift, 0.0])) is None for q in goals):
+                if all(self.world.reach_error(q + np.array([*shift, lift])) is None for q in goals):
                     best, best_gap = shift, g
             if best is not None:
-                return np.array([*best, 0.0])
-        return zero
+                return np.array([*best, lift])
+        return np.array([0.0, 0.0, lift])
 
     def _turn(self, skill: Skill, target_name: str, target: np.ndarray, obs: Observation) -> float:
         """The side a grasp of the round object ``target_name`` (centre ``target`` (3,) m) comes from: the
@@ -727,6 +732,11 @@ def _undoing(cond: TaskCondition, obs: Observation) -> tuple[Predicate, Predicat
     return None
 
 
+PLACE_ABOVE = 0.01
+"""Height (m) of a carried object's bottom above the top of what it is set on at the end of a move on top
+when the demonstrated height would push it more than this into it (:meth:`Executor._aside`)."""
+
+
 def _part_way(cond: TaskCondition, obs: Observation) -> TaskCondition:
     """``cond`` for another attempt: without a container pre-condition (``drawer open``) whose container
     the post-conditions change (``drawer closed``) and which ``obs`` shows neither open nor closed. The
@@ -761,6 +771,7 @@ def _gripper_of(pred: Predicate) -> str:
 
 __all__ = [
     "METHODS",
+    "PLACE_ABOVE",
     "Aim",
     "ConditionSource",
     "Event",
