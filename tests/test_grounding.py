@@ -280,3 +280,26 @@ def test_an_unchanged_container_state_matters_only_when_something_goes_inside() 
     cond = ground(refuted, front).condition
     assert parse_predicate("bottle inside box") not in cond.post_conditions
     assert not any("box" in str(p) and ("open" in str(p) or "closed" in str(p)) for p in cond.pre_conditions)
+
+
+def test_a_wrong_effect_between_two_objects_becomes_the_demonstrated_one() -> None:
+    # the answer relates the bottle to the box by 'in front of' (true at the demonstration's start, an
+    # incidental placement) where the demonstration ends with 'bottle inside box': the post-condition
+    # becomes the relation the demonstration made, not a pre-condition; the gripper that carries the
+    # bottle follows it, and its unseen 'in front of' place goes
+    llm = condition(
+        "move bottle into box",
+        ["gripper grasping bottle"],
+        ["bottle in front of box", "gripper in front of box", "gripper grasping bottle"],
+        collisions=[("gripper", "bottle")],
+    )
+    result = ground(llm, INTO)
+    cond = result.condition
+    assert cond.matches(reference_condition(parse_task("move bottle into box")))
+    assert parse_predicate("bottle in front of box") not in cond.pre_conditions
+    changes = {(r.action, r.where, r.before, r.after) for r in result.repairs}
+    assert ("corrected", "post", "bottle in front of box", "bottle inside box") in changes
+    assert ("removed", "post", "gripper in front of box", None) in changes
+    # a pre-condition true only at the end still moves to the post-conditions (the effect, mistimed)
+    early = condition("move bottle into box", ["gripper grasping bottle", "bottle inside box"], [])
+    assert parse_predicate("bottle inside box") in ground(early, INTO).condition.post_conditions

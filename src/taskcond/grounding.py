@@ -9,8 +9,12 @@ and that demonstration also shows what is true before and after the primitive: t
    ``gripper not grasping``, ``A open`` → ``A closed``), or the relation the demonstration shows between
    the same two objects when the vocabulary rules the two out together (``A above B`` → ``A below B``). A
    relation between objects that does not hold is contradicted (the environment information lists every
-   relation that holds); it moves to the other end of the demonstration if it holds there (a pre-condition
-   that is only true at the end is what the primitive achieves), else it is removed. A relation of the
+   relation that holds); a post-condition relation becomes the one relation between the same two objects
+   (same order) that the demonstration's end shows and its start does not, if there is exactly one (the
+   answer named the pair the primitive relates, the demonstration shows how: ``A in front of B`` →
+   ``A inside B`` in "move A into B", where ``A in front of B`` was the start's incidental placement);
+   otherwise it moves to the other end of the demonstration if it holds there (a pre-condition that is
+   only true at the end is what the primitive achieves), else it is removed. A relation of the
    gripper's own place (``gripper inside box``) is only contradicted by a relation that rules it out: where
    the hand paused at the end of one demonstration does not define it, and the executor treats it as soft
    too (no primitive achieves it on its own, Alg. 1 leaves it to the motion). A container state the
@@ -30,7 +34,8 @@ and that demonstration also shows what is true before and after the primitive: t
 4. *A carried object and its gripper go together*: when a post-condition places the object the gripper
    holds at the end (``A inside B``), the same relation of the gripper (``gripper inside B``) is added
    unless the end rules it out; a post-condition placing the gripper adds the held object's relation when
-   the demonstration shows it appear.
+   the demonstration shows it appear. The gripper's other place by the same object, one the end does not
+   show (``gripper in front of B`` beside ``A inside B``), then goes.
 5. *Collisions*: the gripper's contacts during the demonstration with a relevant object are allowed.
 
 The LLM's relevant objects and relations decide what matters, the demonstration only decides what is true:
@@ -217,6 +222,21 @@ def _subject(pred: Predicate) -> str | None:
     return None
 
 
+def _made(pred: Predicate, evidence: DemoEvidence) -> list[Predicate]:
+    """The relations of ``pred``'s subject to its reference that the demonstration's end shows and its
+    start does not: what the demonstrated primitive made of the two objects."""
+    if not isinstance(pred, SpatialRelation):
+        return []
+    return sorted(
+        (
+            q
+            for q in evidence.end - evidence.start
+            if isinstance(q, SpatialRelation) and (q.subject, q.reference) == (pred.subject, pred.reference)
+        ),
+        key=str,
+    )
+
+
 def _entered(*lists: Iterable[Predicate]) -> set[str]:
     """The objects a relation of the lists puts something inside (``A inside B``, ``gripper inside B``):
     containers whose state the condition depends on."""
@@ -308,8 +328,12 @@ class _Grounding:
                 self._replace(where, pred, actual, f"the demonstration's {when} shows '{actual}'")
             return
         other = self.other(where)
+        made = _made(pred, self.ev) if where == "post" else []
         if rival:
             self._replace(where, pred, rival[0], f"the demonstration's {when} shows '{rival[0]}'")
+        elif len(made) == 1:
+            reason = f"the demonstration relates the two objects by '{made[0]}' at its end, not its start"
+            self._replace(where, pred, made[0], reason)
         elif pred in self.moment(other):
             other_when = _MOMENT[other]
             reason = f"it holds at the demonstration's {other_when}, not its {when}"
@@ -371,6 +395,8 @@ class _Grounding:
             if held is None:
                 continue
             for pred in list(self.lists["post"]):
+                if pred not in self.lists["post"]:
+                    continue  # removed by this rule since
                 if not isinstance(pred, SpatialRelation) or pred.subject not in (gripper, held):
                     continue
                 partner = held if pred.subject == gripper else gripper
@@ -379,6 +405,18 @@ class _Grounding:
                     continue
                 if partner == gripper:
                     reason = f"{gripper} holds {held}, so it is where {held} is"
+                    if pred in self.ev.end:  # the gripper's other, unseen place by the same object goes
+                        for q in list(self.lists["post"]):
+                            if (
+                                isinstance(q, SpatialRelation)
+                                and q.subject == gripper
+                                and q.reference == pred.reference
+                                and q != twin
+                                and q not in self.ev.end
+                            ):
+                                self.lists["post"].remove(q)
+                                why = f"{reason} ('{pred}'), not also '{q}' (not seen at the end)"
+                                self.repairs.append(Repair("removed", "post", str(q), None, why))
                 elif twin in self.ev.end and twin not in self.ev.start:
                     reason = f"{gripper} holds {held}: the demonstration ends with '{twin}'"
                 else:
