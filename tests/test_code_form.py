@@ -108,6 +108,19 @@ def test_v6_asks_a_left_out_primitive_in_one_code_chat_and_generation_as_v5():
         assert load_prompt("retry", "v6").template == load_prompt("retry", "v5").template
 
 
+def test_v7_differs_from_v6_in_the_code_chats_system_message_only():
+    v7, v6 = ConditionGenerator(Replay([]), prompt_version="v7"), ConditionGenerator(Replay([]))
+    v6.prompt_version = "v6"
+    assert uses_code_form("v7")
+    seven = v7.messages("code", TASK, exclude=["move_into"], order_seed=1)
+    six = v6.messages("code", TASK, exclude=["move_into"], order_seed=1)
+    assert seven[1:] == six[1:] and seven[0] != six[0]
+    assert "only when the task opens x, closes x or puts something inside x" in seven[0].content
+    for chat in ("spatial", "state"):  # generation: the same requests as v6's (v5's)
+        assert v7.messages(chat, TASK, order_seed=3) == v6.messages(chat, TASK, order_seed=3)
+    assert load_prompt("code_retry", "v7").template == load_prompt("code_retry", "v6").template
+
+
 def test_v6_code_answer_goes_through_the_validator_retry_and_grammar():
     backend = Replay(["    assert gripper.holding(a)\n    assert a.inside(b)", GOOD])
     result = ConditionGenerator(backend).generate(TASK, exclude=["move_into"])

@@ -59,7 +59,9 @@ PromptVersionOption = Annotated[
     typer.Option(
         "--prompt-version",
         help="Prompt set: v6 (default: a left-out primitive's condition written as a Python function in "
-        "one chat; generation as v5), v5 (generation with the examples as earlier turns of the chat; the "
+        "one chat; generation as v5), v7 (v6 whose code chat says a container's state is asserted only "
+        "when the task opens, closes or puts something inside it), v5 (generation with the examples as "
+        "earlier turns of the chat; the "
         "paper's two chain-of-thought chats for a left-out primitive, as v4), v4 (v1 whose "
         "chain-of-thought prompt shows each example with a one-line worked reasoning), v1 (the paper's "
         "Listings 2-4), v2 (v1 with the definitions of pre/post-conditions and an analogy step in the "

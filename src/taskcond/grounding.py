@@ -9,20 +9,33 @@ and that demonstration also shows what is true before and after the primitive: t
    ``gripper not grasping``, ``A open`` → ``A closed``), or the relation the demonstration shows between
    the same two objects when the vocabulary rules the two out together (``A above B`` → ``A below B``). A
    relation between objects that does not hold is contradicted (the environment information lists every
-   relation that holds); it moves to the other end of the demonstration if it holds there (a pre-condition
-   that is only true at the end is what the primitive achieves), else it is removed. A relation of the
+   relation that holds); a post-condition relation becomes the one relation between the same two objects
+   (same order) that the demonstration's end shows and its start does not, if there is exactly one (the
+   answer named the pair the primitive relates, the demonstration shows how: ``A in front of B`` →
+   ``A inside B`` in "move A into B", where ``A in front of B`` was the start's incidental placement);
+   otherwise it moves to the other end of the demonstration if it holds there (a pre-condition that is
+   only true at the end is what the primitive achieves), else it is removed. A relation of the
    gripper's own place (``gripper inside box``) is only contradicted by a relation that rules it out: where
    the hand paused at the end of one demonstration does not define it, and the executor treats it as soft
-   too (no primitive achieves it on its own, Alg. 1 leaves it to the motion).
+   too (no primitive achieves it on its own, Alg. 1 leaves it to the motion). A container state the
+   demonstration contradicts is removed rather than corrected when the demonstration leaves that
+   container's state unchanged and no relation of the condition puts anything inside it: the primitive
+   was done with the opposite state and does not change it, so the state is neither needed nor achieved
+   (``box open`` in a "move A in front of box" shown with the box closed throughout).
 2. *Missed changes* are added: when the state of the gripper, or of a container among the relevant objects,
    differs between start and end, its start state is a pre-condition and its end state a post-condition.
+   *Containers entered* likewise: when a relation of the condition puts something inside a relevant
+   container (``A inside B``, ``gripper inside B``), the container's state at the start and at the end
+   are a pre- and a post-condition even if unchanged, since reaching inside depends on it (``B open`` in
+   "move A into B"; the relation, the LLM's, says the state matters, the demonstration says which it is).
 3. *The gripper's state* at the start and at the end is completed when the condition has none: every
    primitive needs to know whether the hand starts free or holding something (Alg. 1 raises a grasp or a
    release for it).
 4. *A carried object and its gripper go together*: when a post-condition places the object the gripper
    holds at the end (``A inside B``), the same relation of the gripper (``gripper inside B``) is added
    unless the end rules it out; a post-condition placing the gripper adds the held object's relation when
-   the demonstration shows it appear.
+   the demonstration shows it appear. The gripper's other place by the same object, one the end does not
+   show (``gripper in front of B`` beside ``A inside B``), then goes.
 5. *Collisions*: the gripper's contacts during the demonstration with a relevant object are allowed.
 
 The LLM's relevant objects and relations decide what matters, the demonstration only decides what is true:
@@ -46,6 +59,7 @@ from taskcond.conditions import (
     ContainerState,
     GripperState,
     Predicate,
+    Relation,
     SpatialRelation,
     TaskCondition,
     contradictions,
@@ -208,6 +222,31 @@ def _subject(pred: Predicate) -> str | None:
     return None
 
 
+def _made(pred: Predicate, evidence: DemoEvidence) -> list[Predicate]:
+    """The relations of ``pred``'s subject to its reference that the demonstration's end shows and its
+    start does not: what the demonstrated primitive made of the two objects."""
+    if not isinstance(pred, SpatialRelation):
+        return []
+    return sorted(
+        (
+            q
+            for q in evidence.end - evidence.start
+            if isinstance(q, SpatialRelation) and (q.subject, q.reference) == (pred.subject, pred.reference)
+        ),
+        key=str,
+    )
+
+
+def _entered(*lists: Iterable[Predicate]) -> set[str]:
+    """The objects a relation of the lists puts something inside (``A inside B``, ``gripper inside B``):
+    containers whose state the condition depends on."""
+    return {
+        p.reference
+        for p in (q for preds in lists for q in preds)
+        if isinstance(p, SpatialRelation) and p.relation == Relation.INSIDE and not is_gripper(p.reference)
+    }
+
+
 _MOMENT = {"pre": "start", "post": "end"}
 
 
@@ -224,6 +263,11 @@ class _Grounding:
         self.relevant = list(cond.relevant_objects)
         self.collisions = list(cond.collisions)
         self.repairs: list[Repair] = []
+
+    def unchanged(self, thing: str) -> bool:
+        """Whether the demonstration shows a state of ``thing`` at both ends, the same one."""
+        first = _state_of(self.ev.start, thing)
+        return first is not None and first == _state_of(self.ev.end, thing)
 
     def moment(self, where: str) -> frozenset[Predicate]:
         return self.ev.start if where == "pre" else self.ev.end
@@ -247,39 +291,60 @@ class _Grounding:
 
     # ------------------------------------------------------------------------------------------ rules
     def contradicted(self) -> None:
-        """Rule 1: every pre-condition checked against the start, every post-condition against the end."""
-        for where in ("pre", "post"):
-            moment, when = self.moment(where), _MOMENT[where]
-            for pred in list(self.lists[where]):
-                if not self.decides(pred) or pred in moment:
-                    continue
-                rival = _rivals(pred, moment)
-                if _about_gripper_place(pred) and not rival:
-                    continue  # not seen is not contradicted: the hand's place is soft (module doc)
-                self.lists[where].remove(pred)
-                subject = _subject(pred)
-                if subject is not None:
-                    actual = _state_of(moment, subject)
-                    if actual is None:
-                        reason = f"the demonstration shows no open or closed state of {subject}"
-                        self.repairs.append(Repair("removed", where, str(pred), None, reason))
-                    else:
-                        self._replace(where, pred, actual, f"the demonstration's {when} shows '{actual}'")
-                    continue
-                other = self.other(where)
-                if rival:
-                    self._replace(where, pred, rival[0], f"the demonstration's {when} shows '{rival[0]}'")
-                elif pred in self.moment(other):
-                    other_when = _MOMENT[other]
-                    reason = f"it holds at the demonstration's {other_when}, not its {when}"
-                    if pred in self.lists[other]:
-                        self.repairs.append(Repair("removed", where, str(pred), None, reason))
-                    else:
-                        self.lists[other].append(pred)
-                        self.repairs.append(Repair("corrected", other, str(pred), str(pred), reason))
-                else:
-                    reason = f"it holds at neither the start nor the end of the demonstration (its {when})"
-                    self.repairs.append(Repair("removed", where, str(pred), None, reason))
+        """Rule 1: every pre-condition checked against the start, every post-condition against the end;
+        the containers' states last, once the relations that say which containers are entered are."""
+        for containers in (False, True):
+            for where in ("pre", "post"):
+                for pred in list(self.lists[where]):
+                    if isinstance(pred, ContainerState) == containers:
+                        self._check(where, pred)
+
+    def _check(self, where: str, pred: Predicate) -> None:
+        """Rule 1 for one condition of the list ``where``."""
+        moment, when = self.moment(where), _MOMENT[where]
+        if not self.decides(pred) or pred in moment:
+            return
+        rival = _rivals(pred, moment)
+        if _about_gripper_place(pred) and not rival:
+            return  # not seen is not contradicted: the hand's place is soft (module doc)
+        self.lists[where].remove(pred)
+        subject = _subject(pred)
+        if subject is not None:
+            actual = _state_of(moment, subject)
+            if actual is None:
+                reason = f"the demonstration shows no open or closed state of {subject}"
+                self.repairs.append(Repair("removed", where, str(pred), None, reason))
+            elif (
+                isinstance(pred, ContainerState)
+                and subject not in _entered(self.lists["pre"], self.lists["post"])
+                and self.unchanged(subject)
+            ):
+                reason = (
+                    f"the demonstration shows '{actual}' throughout: nothing goes inside {subject} "
+                    "and its state does not change, so the task neither needs nor changes it"
+                )
+                self.repairs.append(Repair("removed", where, str(pred), None, reason))
+            else:
+                self._replace(where, pred, actual, f"the demonstration's {when} shows '{actual}'")
+            return
+        other = self.other(where)
+        made = _made(pred, self.ev) if where == "post" else []
+        if rival:
+            self._replace(where, pred, rival[0], f"the demonstration's {when} shows '{rival[0]}'")
+        elif len(made) == 1:
+            reason = f"the demonstration relates the two objects by '{made[0]}' at its end, not its start"
+            self._replace(where, pred, made[0], reason)
+        elif pred in self.moment(other):
+            other_when = _MOMENT[other]
+            reason = f"it holds at the demonstration's {other_when}, not its {when}"
+            if pred in self.lists[other]:
+                self.repairs.append(Repair("removed", where, str(pred), None, reason))
+            else:
+                self.lists[other].append(pred)
+                self.repairs.append(Repair("corrected", other, str(pred), str(pred), reason))
+        else:
+            reason = f"it holds at neither the start nor the end of the demonstration (its {when})"
+            self.repairs.append(Repair("removed", where, str(pred), None, reason))
 
     def _replace(self, where: str, old: Predicate, new: Predicate, reason: str) -> None:
         if new in self.lists[where]:
@@ -299,17 +364,21 @@ class _Grounding:
             if first is None or last is None:
                 continue
             changed = first != last
-            if not changed and thing not in grippers:
+            entered = isinstance(first, ContainerState) and thing in _entered(
+                self.lists["pre"], self.lists["post"]
+            )
+            if not changed and thing not in grippers and not entered:
                 continue
             for where, state in (("pre", first), ("post", last)):
                 if any(_subject(p) == thing for p in self.lists[where]):
                     continue
                 when = _MOMENT[where]
-                reason = (
-                    f"the demonstration changes it: '{first}' at the start, '{last}' at the end"
-                    if changed
-                    else f"the gripper's state at the demonstration's {when}"
-                )
+                if changed:
+                    reason = f"the demonstration changes it: '{first}' at the start, '{last}' at the end"
+                elif entered:
+                    reason = f"something goes inside {thing}: its state at the demonstration's {when}"
+                else:
+                    reason = f"the gripper's state at the demonstration's {when}"
                 self.add(where, state, reason)
 
     def carried(self) -> None:
@@ -326,6 +395,8 @@ class _Grounding:
             if held is None:
                 continue
             for pred in list(self.lists["post"]):
+                if pred not in self.lists["post"]:
+                    continue  # removed by this rule since
                 if not isinstance(pred, SpatialRelation) or pred.subject not in (gripper, held):
                     continue
                 partner = held if pred.subject == gripper else gripper
@@ -334,6 +405,18 @@ class _Grounding:
                     continue
                 if partner == gripper:
                     reason = f"{gripper} holds {held}, so it is where {held} is"
+                    if pred in self.ev.end:  # the gripper's other, unseen place by the same object goes
+                        for q in list(self.lists["post"]):
+                            if (
+                                isinstance(q, SpatialRelation)
+                                and q.subject == gripper
+                                and q.reference == pred.reference
+                                and q != twin
+                                and q not in self.ev.end
+                            ):
+                                self.lists["post"].remove(q)
+                                why = f"{reason} ('{pred}'), not also '{q}' (not seen at the end)"
+                                self.repairs.append(Repair("removed", "post", str(q), None, why))
                 elif twin in self.ev.end and twin not in self.ev.start:
                     reason = f"{gripper} holds {held}: the demonstration ends with '{twin}'"
                 else:
