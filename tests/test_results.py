@@ -45,6 +45,19 @@ def test_a_results_file_holds_one_configuration(tmp_path) -> None:
         ResultsFile(old, config())
 
 
+def test_a_configuration_with_tuples_resumes_from_its_json_header(tmp_path) -> None:
+    """A tuple in the configuration (an executor constant) is a list once written: the file reopens."""
+    path = tmp_path / "r.jsonl"
+    ResultsFile(path, config(execution={"hand": (0.105, 0.035)})).append(
+        {"task": "t", "seed": 1, "success": True}
+    )
+    assert [r["seed"] for r in ResultsFile(path, config(execution={"hand": (0.105, 0.035)})).results()] == [1]
+    with pytest.raises(
+        ConfigMismatchError, match=r"execution.hand: \[0.105, 0.035\] \(file\) vs \[0.1, 0.035\]"
+    ):
+        ResultsFile(path, config(execution={"hand": (0.1, 0.035)}))
+
+
 def test_a_torn_last_line_is_skipped_and_ended(tmp_path) -> None:
     path = tmp_path / "r.jsonl"
     ResultsFile(path, config()).append({"task": "t", "method": "none", "seed": 1, "success": True})

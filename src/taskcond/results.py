@@ -74,12 +74,13 @@ class RunConfig:
 
     def to_dict(self) -> dict[str, Any]:
         """The fields as a dict, without those added later (:data:`_LATER_FIELDS`) while they hold their
-        default, so results files written before they existed keep their digest."""
+        default, so results files written before they existed keep their digest; in its JSON form (tuples
+        as lists), so it equals the header a results file read back holds."""
         out = asdict(self)
         for name, default in _LATER_FIELDS.items():
             if out[name] == default:
                 del out[name]
-        return out
+        return json.loads(json.dumps(out))
 
     @property
     def digest(self) -> str:
