@@ -54,6 +54,9 @@ NoCacheOption = Annotated[
     bool, typer.Option("--no-cache", help="Do not read or write the on-disk response cache.")
 ]
 JsonOption = Annotated[bool, typer.Option("--json", help="Print JSON instead of text.")]
+WorkersOption = Annotated[
+    int | None, typer.Option("--workers", min=1, help="Worker processes (default: one per core).")
+]
 PromptVersionOption = Annotated[
     str,
     typer.Option(
@@ -1073,9 +1076,7 @@ def _eval_command(kind: str):
                 "--novel-primitive: llm, llm+demo).",
             ),
         ] = None,
-        workers: Annotated[
-            int | None, typer.Option("--workers", min=1, help="Worker processes (default: one per core).")
-        ] = None,
+        workers: WorkersOption = None,
         as_json: JsonOption = False,
         out: Annotated[
             Path | None,
@@ -1138,9 +1139,7 @@ def eval_instructions(
     instruction: Annotated[
         list[str] | None, typer.Option("--instruction", help="Only these instruction ids (repeatable).")
     ] = None,
-    workers: Annotated[
-        int | None, typer.Option("--workers", min=1, help="Worker processes (default: one per core).")
-    ] = None,
+    workers: WorkersOption = None,
     as_json: JsonOption = False,
     out: Annotated[
         Path | None,
@@ -1300,9 +1299,7 @@ def reproduce(
             "long-horizon task.",
         ),
     ] = None,
-    workers: Annotated[
-        int | None, typer.Option("--workers", min=1, help="Worker processes (default: one per core).")
-    ] = None,
+    workers: WorkersOption = None,
     row: Annotated[
         list[str] | None,
         typer.Option(

@@ -29,21 +29,13 @@ from importlib import resources
 from pathlib import Path
 
 from taskcond.conditions import ConditionError, Predicate, contradictions, parse_predicate
+from taskcond.primitives import PRIMITIVES
 
 FORMAT_VERSION = 1
 """The ``version`` an instructions file declares."""
 
 TAGS = (
-    "grasp",
-    "release",
-    "open",
-    "close",
-    "tilt",
-    "fold",
-    "move",
-    "move_on_top",
-    "move_into",
-    "move_in_front",
+    *(pid for pid, primitive in PRIMITIVES.items() if not primitive.declared),  # the ten of Table I
     "closed-container",
     "in-the-way",
     "paraphrase",
