@@ -19,7 +19,7 @@ from taskcond.conditions import (
 )
 from taskcond.dmp import rollout
 from taskcond.execution.collisions import CollisionMonitor, Landing, allowed_for_arms, landings
-from taskcond.execution.decompose import DecompositionError, parse_plan, with_releases
+from taskcond.execution.decompose import DecompositionError, parse_plan, with_object_names, with_releases
 from taskcond.execution.executor import _part_way
 from taskcond.execution.skills import (
     HALF_TURN,
@@ -378,3 +378,12 @@ def test_a_container_left_part_way_is_not_opened_again_before_closing_it_again()
     assert _part_way(cond, part_way).pre_conditions == (GripperState(None),)
     still_open = Observation(frozenset({GripperState(None), ContainerState("top drawer", True)}), {}, ())
     assert _part_way(cond, still_open) is cond
+
+
+def test_an_objects_other_name_is_replaced_by_its_name_before_the_llm_reads_it() -> None:
+    objects = ("bowl", "top drawer", "bottom drawer", "mug")
+    aliases = {"upper drawer": "top drawer", "cup": "mug", "lunch box": "box"}
+    text = "Put the bowl in the Upper Drawer, then the cup in the lunch box and the cupboard."
+    assert with_object_names(text, objects, aliases) == (
+        "Put the bowl in the top drawer, then the mug in the lunch box and the cupboard."
+    )

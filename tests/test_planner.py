@@ -75,8 +75,35 @@ def test_a_step_whose_effect_already_holds_is_dropped() -> None:
 
 
 def test_a_step_whose_effect_an_earlier_step_achieves_is_kept() -> None:
-    plan = ("open box", "close box", "open box")
+    plan = ("open box", "grasp bottle", "move bottle into box", "release bottle", "close box")
     assert repair(plan, CLOSED, conditions).steps == plan
+
+
+def test_an_open_that_a_later_close_undoes_before_any_step_needs_it_is_dropped() -> None:
+    """ "Close the box and the drawers" planned by a small model as ``open box``, ``close box``."""
+    out = repair(("open box", "grasp bottle", "release bottle", "close box"), OPEN, conditions)
+    assert out.steps == ("grasp bottle", "release bottle", "close box")
+    (change,) = out.changes
+    assert (change.kind, change.task) == ("drop", "open box") and "'close box' undoes" in change.reason
+
+
+def test_moving_onto_an_open_container_closes_it_first() -> None:
+    """On an open box the mug would fall inside; an affording scene makes the box's closing a
+    pre-condition of the move whatever its condition says."""
+
+    def affords(primitive: str, objects: tuple[str, ...]) -> str | None:
+        return None if objects != ("table",) else "'table' cannot be opened or closed"
+
+    mug_on = {
+        "move mug on top of box": _cond(
+            "move mug on top of box", ["gripper grasping mug"], ["gripper grasping mug", "mug above box"]
+        )
+    }
+    plan = ("grasp mug", "move mug on top of box", "release mug")
+    out = repair(plan, OPEN, lambda t: mug_on.get(t) or CONDITIONS[t], affords)
+    assert out.steps == ("close box", *plan)
+    table = ("grasp mug", "move mug on top of table", "release mug")
+    assert repair(table, OPEN, conditions, affords).steps == table
 
 
 def test_a_move_whose_relation_already_holds_is_kept() -> None:

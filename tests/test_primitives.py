@@ -35,6 +35,7 @@ def test_registry_has_the_papers_ten_primitives():
         ("tilt mug", "tilt", ("mug",)),
         ("fold the cloth", "fold", ("cloth",)),
         ("move spatula to position", "move", ("spatula",)),
+        ("move bowl to the target position", "move", ("bowl",)),
         ("move coffee mug on top of top drawer", "move_on_top", ("coffee mug", "top drawer")),
         ("place the spatula onto the cloth", "move_on_top", ("spatula", "cloth")),
         ("move bottle into box", "move_into", ("bottle", "box")),

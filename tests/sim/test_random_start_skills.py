@@ -14,7 +14,7 @@ pytest.importorskip("pybullet")
 import pybullet
 
 from taskcond.envs.kitchen import KitchenEnv
-from taskcond.execution.executor import Executor
+from taskcond.execution.executor import ExecutionConfig, Executor
 from taskcond.execution.kitchen import (
     RANDOM_MIN_RADIUS,
     FreeTask,
@@ -128,3 +128,34 @@ def test_a_place_on_top_demonstrated_with_another_object_holds_this_one_above_th
         assert lo[2] > obs.boxes["box"][1][2] - 0.005  # held above the lid, not pushed into it
     finally:
         env.close()
+
+
+def test_a_grasp_far_from_every_demonstrated_start_goes_to_one_first() -> None:
+    """The hand low beside the bowl, nearest to the start of the bowl grasp demonstrated from the bottom
+    drawer's handle (LHT2) yet 0.18 m from it: run from there, that DMP misses the bowl; the executor
+    first carries the hand to the highest demonstrated start (the primitive task's, above the bowl) and
+    the grasp holds."""
+    library = learn_library(None, ["grasp-bowl", "LHT2"])
+    for approach in (None, 0.15):
+        env = KitchenEnv(FreeTask("anything"))
+        env.reset(seed=0)
+        try:
+            for k, name in enumerate(n for n in env.scene.free_objects if n != "bowl"):
+                env.scene.place(name, (0.62, -0.40 + 0.1 * k), 0.0)
+            env.scene.place("bowl", (0.45, -0.10), 0.0)
+            world = KitchenWorld(env)
+            ee = env.robot.ee_pose()
+            for k in range(60):  # the hand to (0.41, 0.25, 0.09), low beside the bowl
+                position = ee.position + (np.array([0.41, 0.25, 0.09]) - ee.position) * min(1.0, k / 40)
+                env.step(np.concatenate([position, ee.orientation, [0.0]]))
+            config = ExecutionConfig(approach_distance=approach)
+            executor = Executor(world, library, method="env", source=EnvConditions(library), config=config)
+            result = executor.run(["grasp bowl"])
+            (aim,) = [e for e in result.events if e.kind == "primitive"][:1]
+            if approach is None:
+                assert aim.data["skill"] == "LHT2.3-grasp-bowl" and world.observe().grasped() != "bowl"
+            else:
+                assert aim.data["skill"] == "grasp-bowl" and "demonstrated start" in aim.message
+                assert result.completed and world.observe().grasped() == "bowl"
+        finally:
+            env.close()

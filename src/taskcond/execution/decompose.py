@@ -11,7 +11,8 @@ The prompt's rule "grasp an object before moving it, release it after" is then e
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+import re
+from collections.abc import Callable, Mapping, Sequence
 
 from taskcond.generator import load_prompt
 from taskcond.llm.base import ChatBackend, ChatMessage, ChatRequest, LLMError, Sampling
@@ -93,6 +94,17 @@ def _part_of(name: str, objects: Sequence[str]) -> str:
     return whole[0] if len(whole) == 1 else name
 
 
+def with_object_names(instruction: str, objects: Sequence[str], aliases: Mapping[str, str]) -> str:
+    """``instruction`` with each alias of ``aliases`` (whole words, any case) whose object is in
+    ``objects`` replaced by the object's name, longest alias first: "the upper drawer" → "the top
+    drawer". A small model maps an alias to the wrong object of the list it is shown."""
+    for alias in sorted(aliases, key=len, reverse=True):
+        if aliases[alias] in objects:
+            pattern = rf"(?<![\w-]){re.escape(alias)}(?![\w-])"
+            instruction = re.sub(pattern, aliases[alias], instruction, flags=re.IGNORECASE)
+    return instruction
+
+
 def decompose(
     instruction: str,
     backend: ChatBackend,
@@ -100,16 +112,20 @@ def decompose(
     affords: Callable[[str, tuple[str, ...]], str | None] | None = None,
     max_retries: int = 2,
     version: str = "v1",
+    aliases: Mapping[str, str] | None = None,
 ) -> list[str]:
-    """Ask the LLM for the primitive tasks of ``instruction`` in order (:func:`with_releases` added).
+    """Ask the LLM for the primitive tasks of ``instruction`` in order (:func:`with_releases` added),
+    the objects' ``aliases`` (alias → object name) replaced by their names first
+    (:func:`with_object_names`).
 
     Raises:
         DecompositionError: no valid plan within ``1 + max_retries`` answers (the last error is given).
         LLMError: the backend failed.
     """
     patterns = "\n".join(f"  {p.pattern}" for p in PRIMITIVES.values())
+    text = with_object_names(" ".join(instruction.split()), objects, aliases or {})
     prompt = load_prompt("decompose", version).substitute(
-        patterns=patterns, objects=", ".join(objects), instruction=" ".join(instruction.split())
+        patterns=patterns, objects=", ".join(objects), instruction=text
     )
     messages = [ChatMessage("user", prompt)]
     error = ""
@@ -130,4 +146,12 @@ def decompose(
     raise DecompositionError(f"no valid plan for {instruction!r}: {error}")
 
 
-__all__ = ["PLACES", "DecompositionError", "LLMError", "decompose", "parse_plan", "with_releases"]
+__all__ = [
+    "PLACES",
+    "DecompositionError",
+    "LLMError",
+    "decompose",
+    "parse_plan",
+    "with_object_names",
+    "with_releases",
+]

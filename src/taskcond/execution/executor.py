@@ -125,6 +125,9 @@ class ExecutionConfig:
         clearance: depth (m) by which the hand's footprint at a grasp's goal may reach into the box of an
             object standing up beside it before the grasp of a round object is turned to another side;
             also the least gap (m) :meth:`Executor._aside` keeps around a placed object.
+        approach_distance: a one-arm grasp whose hand is farther than this (m) from where every
+            demonstration of it started, relative to the target, first goes to the highest such start
+            (:meth:`Executor._approach`); None never does.
     """
 
     budget: float = 60.0
@@ -137,6 +140,7 @@ class ExecutionConfig:
     speed_limit: float = 0.25
     hand: tuple[float, float] = (0.105, 0.035)
     clearance: float = 0.01
+    approach_distance: float | None = 0.15
 
 
 @dataclass
@@ -176,6 +180,9 @@ class Aim:
             demonstration is turned (:meth:`Executor._turn`); 0 as demonstrated.
         aside: (3,) m the goal is moved horizontally from the demonstrated spot on top of the target
             (:meth:`Executor._aside`), already added to ``target``; zero as demonstrated.
+        approach: (3,) m, world frame: where the hand goes before the skill runs, the skill's
+            demonstrated start relative to the target (:meth:`Executor._approach`); None to start where it
+            is.
     """
 
     task: str
@@ -184,6 +191,7 @@ class Aim:
     target: np.ndarray | None
     turn: float = 0.0
     aside: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(3))
+    approach: np.ndarray | None = None
 
     @property
     def arms(self) -> int:
@@ -356,7 +364,11 @@ class Executor:
         obs = self.world.observe()
         aim = self._aim(task, obs)
         monitor = None if cond is None else CollisionMonitor.start(cond, obs, self.world.arms[: aim.arms])
-        self.log.primitive(task, depth, aim.skill, aim.target_name, aim.target, aim.turn, aim.aside)
+        self.log.primitive(
+            task, depth, aim.skill, aim.target_name, aim.target, aim.turn, aim.aside, aim.approach
+        )
+        if aim.approach is not None:
+            self._transit(aim.approach, aim.skill.segments[0].gripper)
         adjustments = 0
         for seg in aim.skill.segments:
             if self.world.time > deadline:
@@ -374,7 +386,8 @@ class Executor:
         A grasp of an object that fell over stops the run: every grasp skill is demonstrated on an upright
         object, and re-grasps that cannot hold it would only spend the budget. A grasp of a round object
         whose demonstrated approach would bring the hand against a neighbour comes from another side
-        (:meth:`_turn`).
+        (:meth:`_turn`). A grasp whose hand is far from every demonstrated start goes to the highest one
+        first (:meth:`_far`, :meth:`_transit`).
 
         Raises:
             ExecutionError: the target is not perceived or lies on its side (a grasp), no skill fits, or
@@ -403,13 +416,43 @@ class Executor:
                 f"{len(self.world.arms)}",
                 "no_skill",
             )
+        far = grasp and target is not None and self._far(task, skill, here - target)
+        if far:
+            skill = max(self.library.candidates(task), key=lambda s: float(s.start_offset[2]))
         turn = 0.0
         if grasp and target is not None and target_name in obs.round and skill.segments[0].anchor == "target":
             turn = self._turn(skill, target_name, target, obs)
         aside = np.zeros(3)
         if parse_task(task).primitive.id == "move_on_top" and target is not None and target_name is not None:
             aside = self._aside(skill, target_name, target, obs)
-        return Aim(task, skill, target_name, None if target is None else target + aside, turn, aside)
+        approach = target + turned(skill.start_offset, turn) if far and target is not None else None
+        return Aim(
+            task, skill, target_name, None if target is None else target + aside, turn, aside, approach
+        )
+
+    def _far(self, task: str, skill: Skill, offset: np.ndarray) -> bool:
+        """Whether the hand, at ``offset`` (3,) m from the target, is farther than
+        :attr:`ExecutionConfig.approach_distance` from the start of ``skill`` (the nearest demonstrated
+        one): a one-arm skill anchored on its target only."""
+        limit = self.config.approach_distance
+        if limit is None or skill.arms != 1 or skill.segments[0].anchor != "target":
+            return False
+        return float(np.linalg.norm(skill.start_offset - offset)) > limit
+
+    def _transit(self, goal: np.ndarray, gripper: float) -> None:
+        """Beyond the paper: carry the hand to ``goal`` (3,) m, world frame, before a skill that was
+        demonstrated from there, so that its DMP starts where it was learned (a DMP started far from its
+        demonstration keeps the demonstrated path's shape and brings it, scaled, into whatever lies
+        between). Straight up to the higher of the two heights, across, and down, at
+        :attr:`ExecutionConfig.speed_limit`, the orientation and the ``gripper`` command held."""
+        here, orientation = self.world.ee_pose()
+        top = max(float(here[2]), float(goal[2]))
+        step = self.config.speed_limit * self.world.dt
+        for waypoint in (np.array([*here[:2], top]), np.array([*goal[:2], top]), np.asarray(goal, float)):
+            n = max(1, math.ceil(float(np.linalg.norm(waypoint - here)) / step))
+            for k in range(1, n + 1):
+                self._step(here + (waypoint - here) * (k / n), orientation, gripper)
+            here = waypoint
 
     def _aside(self, skill: Skill, target_name: str, target: np.ndarray, obs: Observation) -> np.ndarray:
         """Where on top of ``target_name`` (centre ``target`` (3,) m) the carried object goes: the

@@ -210,12 +210,23 @@ class _Model:
         if task not in self._cache:
             cond = self._source(task)
             keep = self._applicable
+            pre = tuple(p for p in (*cond.pre_conditions, *self._implied(task)) if keep(p))
             self._cache[task] = dataclasses.replace(
                 cond,
-                pre_conditions=tuple(p for p in cond.pre_conditions if keep(p)),
+                pre_conditions=tuple(dict.fromkeys(pre)),
                 post_conditions=tuple(p for p in cond.post_conditions if keep(p)),
             )
         return self._cache[task]
+
+    def _implied(self, task: str) -> tuple[Predicate, ...]:
+        """Pre-conditions the vocabulary implies whatever the condition says: ``move A on top of B`` on a
+        container B that can be closed needs ``B closed`` (on an open box, ``A above B`` cannot hold: A
+        goes inside, and the judge's ``above`` excludes ``inside``)."""
+        parsed = parse_task(task)
+        if parsed.primitive.id != "move_on_top" or self.affords is None:
+            return ()
+        target = parsed.objects[1]
+        return (ContainerState(target, False),) if self.affords("close", (target,)) is None else ()
 
     def _applicable(self, pred: Predicate) -> bool:
         """As the executor's: a container state of an object that has no such state here is dropped
@@ -268,7 +279,8 @@ def repair(
     """
     model = _Model(conditions, frozenset(start), affords)
     plan = list(steps)
-    changes = _drops(plan, model)
+    changes = _undone(plan, model)
+    changes += _drops(plan, model)
     given_up: set[tuple[str, Predicate]] = set()  # by the task that has the flaw: its index moves
     for _ in range(max_changes):
         flaws = [f for f in model.flaws(plan) if (plan[f.index], f.pred) not in given_up]
@@ -304,6 +316,35 @@ def _achiever(flaw: _Flaw) -> str | None:
         return None if name is None else parse_task(name).name
     except TaskNameError:
         return None
+
+
+def _undone(plan: list[str], model: _Model) -> list[Change]:
+    """Remove, in place, each open or close that a later close or open of the same container undoes
+    before any step between them needs its effect ("close everything" planned as ``open top drawer``,
+    ..., ``close top drawer``)."""
+    changes: list[Change] = []
+    i = 0
+    while i < len(plan):
+        parsed = parse_task(plan[i])
+        if parsed.primitive.id not in ("open", "close"):
+            i += 1
+            continue
+        (effect,) = named_effects(plan[i])
+        undo = next(
+            (
+                k
+                for k in range(i + 1, len(plan))
+                if any(contradictions((effect, q)) for q in named_effects(plan[k]))
+            ),
+            None,
+        )
+        if undo is None or any(effect in model.condition(t).pre_conditions for t in plan[i + 1 : undo]):
+            i += 1
+            continue
+        reason = f"'{plan[undo]}' undoes its '{effect}' before any step needs it"
+        changes.append(Change("drop", plan[i], i + 1 + len(changes), reason))
+        del plan[i]
+    return changes
 
 
 def _drops(plan: list[str], model: _Model) -> list[Change]:

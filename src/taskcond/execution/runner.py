@@ -55,6 +55,7 @@ from taskcond.results import (
     llm_fields,
 )
 from taskcond.sim.recording import VideoRecorder
+from taskcond.sim.scene import ALIASES
 from taskcond.tasks.registry import UnknownTaskError, get_task, list_tasks, make
 
 PLANNERS = ("conditions", "none")
@@ -187,7 +188,7 @@ def llm_decomposer(
             announce(scene)
         if not backends:
             backends.append(make_backend(LLMConfig.load(llm)))
-        return decompose(instruction, backends[0], objects, affords)
+        return decompose(instruction, backends[0], objects, affords, aliases=ALIASES)
 
     return decomposer
 

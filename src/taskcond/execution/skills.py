@@ -319,14 +319,9 @@ class SkillLibrary:
     def __len__(self) -> int:
         return len(self.skills)
 
-    def lookup(
-        self, task_name: str, start: np.ndarray | None = None, orientation: np.ndarray | None = None
-    ) -> Skill:
-        """The skill for a primitive task name: among those demonstrated on the same objects (else of the
-        same primitive on the same target, else of the same primitive), the one whose demonstration started
-        nearest to ``start`` (3,) — the first end effector's position relative to the target's centre, or
-        in the world frame for primitives without a target — and ``orientation`` (4,) xyzw; a tenth of a
-        radian counts as a centimetre.
+    def candidates(self, task_name: str) -> list[Skill]:
+        """The skills that can run a primitive task name: those demonstrated on the same objects, else of
+        the same primitive on the same target, else of the same primitive.
 
         Raises:
             SkillError: no skill of that primitive.
@@ -334,15 +329,28 @@ class SkillLibrary:
         task = parse_task(task_name)
         same = [s for s in self.skills.values() if s.primitive == task.primitive.id]
         target = target_object(task.name)
-        candidates = [s for s in same if s.task_name == task.name] or [
+        found = [s for s in same if s.task_name == task.name] or [
             s for s in same if target is not None and target_object(s.task_name) == target
         ]
-        candidates = candidates or same
-        if not candidates:
+        if not (found or same):
             known = sorted({s.primitive for s in self.skills.values()})
             raise SkillError(
                 f"no skill for {task.name!r} ({task.primitive.id}); skills exist for: {', '.join(known)}"
             )
+        return found or same
+
+    def lookup(
+        self, task_name: str, start: np.ndarray | None = None, orientation: np.ndarray | None = None
+    ) -> Skill:
+        """The skill for a primitive task name: among its :meth:`candidates`, the one whose demonstration started
+        nearest to ``start`` (3,) — the first end effector's position relative to the target's centre, or
+        in the world frame for primitives without a target — and ``orientation`` (4,) xyzw; a tenth of a
+        radian counts as a centimetre.
+
+        Raises:
+            SkillError: no skill of that primitive.
+        """
+        candidates = self.candidates(task_name)
         if start is None or len(candidates) == 1:
             return candidates[0]
 

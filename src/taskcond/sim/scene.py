@@ -136,6 +136,20 @@ def dual_arm_config(base: SceneConfig | None = None, cloth: ClothSpec | None = N
 DRAWERS = ("bottom drawer", "top drawer")
 ARTICULATED = ("top drawer", "bottom drawer", "box", "microwave")
 """Container names with a joint."""
+ALIASES = {
+    "upper drawer": "top drawer",
+    "lower drawer": "bottom drawer",
+    "microwave oven": "microwave",
+    "lunch box": "box",
+    "lunchbox": "box",
+    "cup": "mug",
+    "tube of toothpaste": "toothpaste",
+    "toothpaste tube": "toothpaste",
+    "tin can": "can",
+    "tin": "can",
+}
+"""Other words an instruction may use for a scene object (alias → the object's name), read before the
+LLM decomposes it: the embedded model took "the upper drawer" for the bottom drawer."""
 
 
 @dataclass(frozen=True)
