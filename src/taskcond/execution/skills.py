@@ -342,10 +342,10 @@ class SkillLibrary:
     def lookup(
         self, task_name: str, start: np.ndarray | None = None, orientation: np.ndarray | None = None
     ) -> Skill:
-        """The skill for a primitive task name: among its :meth:`candidates`, the one whose demonstration started
-        nearest to ``start`` (3,) — the first end effector's position relative to the target's centre, or
-        in the world frame for primitives without a target — and ``orientation`` (4,) xyzw; a tenth of a
-        radian counts as a centimetre.
+        """The skill for a primitive task name: among its :meth:`candidates`, the one whose demonstration
+        started nearest to ``start`` (3,) — the first end effector's position relative to the target's
+        centre, or in the world frame for primitives without a target — and ``orientation`` (4,) xyzw; a
+        tenth of a radian counts as a centimetre.
 
         Raises:
             SkillError: no skill of that primitive.
