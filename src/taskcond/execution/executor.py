@@ -57,7 +57,7 @@ from dataclasses import dataclass
 from typing import Literal, Protocol
 
 import numpy as np
-from scipy.spatial.transform import Rotation
+from scipy.spatial.transform import Rotation, Slerp
 
 from taskcond.conditions import (
     ContainerState,
@@ -67,7 +67,7 @@ from taskcond.conditions import (
     TaskCondition,
     is_gripper,
 )
-from taskcond.dmp import DMPParameters, DMPRollout
+from taskcond.dmp import DMPParameters, DMPRollout, rollout
 from taskcond.execution.collisions import CollisionMonitor
 from taskcond.execution.events import Event, EventLog, fmt_items, fmt_vector
 from taskcond.execution.skills import Segment, Skill, SkillError, SkillLibrary, target_object, turned
@@ -140,7 +140,7 @@ class ExecutionConfig:
     speed_limit: float = 0.25
     hand: tuple[float, float] = (0.105, 0.035)
     clearance: float = 0.01
-    approach_distance: float | None = 0.15
+    approach_distance: float | None = 0.25
 
 
 @dataclass
@@ -368,7 +368,10 @@ class Executor:
             task, depth, aim.skill, aim.target_name, aim.target, aim.turn, aim.aside, aim.approach
         )
         if aim.approach is not None:
-            self._transit(aim.approach, aim.skill.segments[0].gripper)
+            first = aim.skill.segments[0]
+            self._transit(
+                aim.approach, first.orientation(1.0, self.world.ee_pose()[1], aim.turn), first.gripper
+            )
         adjustments = 0
         for seg in aim.skill.segments:
             if self.world.time > deadline:
@@ -421,7 +424,7 @@ class Executor:
             skill = max(self.library.candidates(task), key=lambda s: float(s.start_offset[2]))
         turn = 0.0
         if grasp and target is not None and target_name in obs.round and skill.segments[0].anchor == "target":
-            turn = self._turn(skill, target_name, target, obs)
+            turn = self._turn(skill, target_name, target, obs, far)
         aside = np.zeros(3)
         if parse_task(task).primitive.id == "move_on_top" and target is not None and target_name is not None:
             aside = self._aside(skill, target_name, target, obs)
@@ -439,20 +442,40 @@ class Executor:
             return False
         return float(np.linalg.norm(skill.start_offset - offset)) > limit
 
-    def _transit(self, goal: np.ndarray, gripper: float) -> None:
+    def _transit(self, goal: np.ndarray, orientation: np.ndarray, gripper: float) -> None:
         """Beyond the paper: carry the hand to ``goal`` (3,) m, world frame, before a skill that was
         demonstrated from there, so that its DMP starts where it was learned (a DMP started far from its
         demonstration keeps the demonstrated path's shape and brings it, scaled, into whatever lies
-        between). Straight up to the higher of the two heights, across, and down, at
-        :attr:`ExecutionConfig.speed_limit`, the orientation and the ``gripper`` command held."""
-        here, orientation = self.world.ee_pose()
-        top = max(float(here[2]), float(goal[2]))
+        between), along :meth:`_transit_path`, turning the hand to ``orientation`` (4,) xyzw on the way
+        (the demonstration's first; turned there at once, the arm swings the hand off its path) and holding
+        the ``gripper`` command."""
+        here, here_q = self.world.ee_pose()
+        path = self._transit_path(here, goal)
+        turns = self._transit_orientations(here_q, orientation, len(path))
+        for point, quat in zip(path[1:], turns[1:], strict=True):
+            self._step(point, quat, gripper)
+        for _ in range(TRANSIT_SETTLE):  # the arm lags its commands: the DMP starts where the hand is
+            if float(np.linalg.norm(self.world.ee_pose()[0] - goal)) < TRANSIT_TOLERANCE:
+                break
+            self._step(goal, orientation, gripper)
+
+    @staticmethod
+    def _transit_orientations(start: np.ndarray, end: np.ndarray, n: int) -> np.ndarray:
+        """(n, 4) xyzw orientations slerped from ``start`` to ``end`` (each (4,) xyzw) over a transit."""
+        slerp = Slerp([0.0, 1.0], Rotation.from_quat([start, end]))
+        return slerp(np.linspace(0.0, 1.0, n)).as_quat()
+
+    def _transit_path(self, start: np.ndarray, goal: np.ndarray) -> np.ndarray:
+        """(m, 3) positions, one per control step, from ``start`` to ``goal`` (each (3,) m): straight up to
+        the higher of the two heights, across, and down, at :attr:`ExecutionConfig.speed_limit`."""
+        top = max(float(start[2]), float(goal[2]))
         step = self.config.speed_limit * self.world.dt
-        for waypoint in (np.array([*here[:2], top]), np.array([*goal[:2], top]), np.asarray(goal, float)):
+        points, here = [np.asarray(start, float)], np.asarray(start, float)
+        for waypoint in (np.array([*start[:2], top]), np.array([*goal[:2], top]), np.asarray(goal, float)):
             n = max(1, math.ceil(float(np.linalg.norm(waypoint - here)) / step))
-            for k in range(1, n + 1):
-                self._step(here + (waypoint - here) * (k / n), orientation, gripper)
+            points += [here + (waypoint - here) * (k / n) for k in range(1, n + 1)]
             here = waypoint
+        return np.array(points)
 
     def _aside(self, skill: Skill, target_name: str, target: np.ndarray, obs: Observation) -> np.ndarray:
         """Where on top of ``target_name`` (centre ``target`` (3,) m) the carried object goes: the
@@ -510,18 +533,21 @@ class Executor:
                 return np.array([*best, lift])
         return np.array([0.0, 0.0, lift])
 
-    def _turn(self, skill: Skill, target_name: str, target: np.ndarray, obs: Observation) -> float:
+    def _turn(self, skill: Skill, target_name: str, target: np.ndarray, obs: Observation, far: bool) -> float:
         """The side a grasp of the round object ``target_name`` (centre ``target`` (3,) m) comes from: the
         demonstration turned by 0, ±π/2 or π rad about the object's vertical axis (a round object is held
-        the same from every side). The grasp pose is where the skill's pieces lead with the gripper still
-        open: the approach's goal plus the demonstrated displacements of the open-gripper pieces after it.
-        The demonstrated side (0) is kept unless the hand's footprint there (:attr:`ExecutionConfig.hand`,
-        along the finger axis of the demonstrated orientation at that pose, turned) reaches more than
-        :attr:`ExecutionConfig.clearance` into the perceived box of anything standing above the fingertips
-        (an open drawer, a neighbouring bottle; a grazed corner is left to Alg. 2, as demonstrations near
-        such neighbours succeed); then the reachable side that reaches least into a box, and then keeps
-        the largest gap, wins (the demonstrated one on a tie). A hand housing against a neighbour cannot be
-        repaired by Alg. 2's goal shifts, which move the fingers off the wall they are to hold."""
+        the same from every side). The hand's way there is what the skill's pieces with the gripper still
+        open make of it (their DMPs rolled out from the hand, or from the demonstrated start when ``far``:
+        :meth:`_far`), ending at the grasp pose. The demonstrated side (0) is kept unless the hand's
+        footprint (:attr:`ExecutionConfig.hand`, along the finger axis of the demonstrated orientation,
+        turned) reaches into the perceived box of anything standing above the fingertips at the grasp pose,
+        or above the housing (:data:`HOUSING` over the fingertips) on the way, by more than
+        :attr:`ExecutionConfig.clearance` (an open drawer, a neighbouring bottle, the box's corner passed
+        on the way down; a grazed corner is left to Alg. 2 for a skill demonstrated from about here, as
+        demonstrations near such neighbours succeed) or at all (``far``: a skill demonstrated in another
+        scene). Then the reachable side that reaches least into a box, and then keeps the largest gap,
+        wins (the demonstrated one on a tie). A hand housing against a neighbour cannot be repaired by Alg.
+        2's goal shifts, which move the fingers off the wall they are to hold."""
         arms = self.world.arms
         others = [
             (lo, hi) for name, (lo, hi) in obs.boxes.items() if name not in (target_name, "table", *arms)
@@ -533,40 +559,57 @@ class Executor:
             opened.append(seg)
         if not opened:
             return 0.0
-        fingers = Rotation.from_quat(opened[-1].orientations[-1, :4]).apply([0.0, 1.0, 0.0])
         half_length, half_width = self.config.hand
-        u = np.linspace(-1.0, 1.0, 9)[:, None, None] * half_length
-        v = np.linspace(-1.0, 1.0, 3)[None, :, None] * half_width
+        u = np.linspace(-1.0, 1.0, 9)[None, :, None, None] * half_length
+        v = np.linspace(-1.0, 1.0, 3)[None, None, :, None] * half_width
+        here, here_q = self.world.ee_pose()
+        fractions = np.linspace(0.0, 1.0, WAY_SAMPLES + 1)
 
-        def grasp_point(turn: float) -> np.ndarray:
-            point = opened[0].goal(opened[0].dmp.y0, target, turn)
-            for seg in opened[1:]:
-                point = seg.goal(point, target, turn)
-            return point[:3]
+        def way(turn: float) -> tuple[np.ndarray, np.ndarray]:
+            """(m, 3) hand positions to the grasp pose and (m, 4) orientations xyzw on the way."""
+            point, quat = (target + turned(skill.start_offset, turn) if far else here), here_q
+            points, quats = [], []
+            if far:
+                path = self._transit_path(here, point)
+                quat = opened[0].orientation(1.0, here_q, turn)
+                points.append(path[::TRANSIT_EVERY])
+                quats.append(self._transit_orientations(here_q, quat, len(path))[::TRANSIT_EVERY])
+            for seg in opened:
+                goal = seg.goal(point, target, turn)
+                points.append(
+                    rollout(_conditioned(seg, point, goal), point, goal, n_steps=WAY_SAMPLES).positions
+                )
+                quats.append(seg.orientation(fractions, quat, turn))
+                point, quat = goal, quats[-1][-1]
+            return np.concatenate(points)[:, :3], np.concatenate(quats)[:, :4]
 
-        def clearance(turn: float) -> tuple[float, float]:
-            """(− deepest reach of a footprint sample into a box, least gap), metres: larger is clearer."""
-            point = grasp_point(turn)
-            axis = turned(fingers, turn)[:2]
-            axis = axis / max(float(np.linalg.norm(axis)), 1e-9)
-            across = np.array([-axis[1], axis[0]])
-            points = (point[:2] + u * axis + v * across).reshape(-1, 2)
+        def clearance(turn: float) -> tuple[bool, float, float]:
+            """(the arm passes clear, − deepest reach of a footprint sample into a box, least gap):
+            larger is clearer."""
+            points, quats = way(turn)
+            axes = Rotation.from_quat(quats).apply([0.0, 1.0, 0.0])
+            flat = axes[:, :2] / np.maximum(np.linalg.norm(axes[:, :2], axis=1, keepdims=True), 1e-9)
+            across = np.column_stack([-flat[:, 1], flat[:, 0]])
+            feet = points[:, None, None, :2] + u * flat[:, None, None, :] + v * across[:, None, None, :]
+            floor = points[:, 2] + np.where(np.arange(len(points)) == len(points) - 1, 0.0, HOUSING)
             depth, gap = 0.0, np.inf
             for lo, hi in others:
-                if hi[2] <= point[2]:
+                above = hi[2] > floor
+                if not above.any():
                     continue
-                outside = np.maximum(np.maximum(lo[:2] - points, points - hi[:2]), 0.0)
+                samples = feet[above].reshape(-1, 2)
+                outside = np.maximum(np.maximum(lo[:2] - samples, samples - hi[:2]), 0.0)
                 gap = min(gap, float(np.linalg.norm(outside, axis=1).min()))
-                inner = np.minimum(points - lo[:2], hi[:2] - points).min(axis=1)
+                inner = np.minimum(samples - lo[:2], hi[:2] - samples).min(axis=1)
                 depth = max(depth, float(inner.max(initial=0.0)))
-            return -depth, gap
+            clear = self.world.sweep(points, quats, (target_name,)) > -SWEEP_TOLERANCE
+            return clear, -depth, gap
 
         best, best_clearance = 0.0, clearance(0.0)
-        if -best_clearance[0] <= self.config.clearance:
+        if best_clearance[0] and -best_clearance[1] <= (0.0 if far else self.config.clearance):
             return 0.0
         for turn in (math.pi / 2, -math.pi / 2, math.pi):
-            approach = opened[0].goal(opened[0].dmp.y0, target, turn)
-            reachable = all(self.world.reach_error(q) is None for q in (grasp_point(turn), approach))
+            reachable = all(self.world.reach_error(q) is None for q in way(turn)[0])
             if reachable and (score := clearance(turn)) > best_clearance:
                 best, best_clearance = turn, score
         return best
@@ -730,18 +773,22 @@ class Executor:
 
 MAX_STRETCH = 3.0
 """Largest ratio of new to demonstrated goal offset per dimension that keeps Eq. 2's scaling."""
+MIN_SCALED = 0.01
+"""Least demonstrated displacement (m) of a piece's dimension for Eq. 2's scaling of its forcing term."""
 
 
 def _conditioned(seg: Segment, start: np.ndarray, goal: np.ndarray) -> DMPParameters:
     """The piece's DMP for a movement from ``start`` to ``goal`` (3,): Eq. 2's scaled forcing term where
     the new offset ``goal − start`` keeps the demonstrated sign and at most :data:`MAX_STRETCH` times its
     size, the unscaled term elsewhere (:meth:`DMPParameters.unscaled`), so that a demonstration is never
-    replayed mirrored or blown up."""
+    replayed mirrored or blown up; a dimension the demonstration hardly moved (less than
+    :data:`MIN_SCALED`) is always unscaled, so that a millimetre more or less of offset does not switch
+    its demonstrated excursion on or off."""
     dmp = seg.dmp
     demo = dmp.goal - dmp.y0
     with np.errstate(divide="ignore", invalid="ignore"):
         ratio = np.where(dmp.goal_scaled, (np.asarray(goal) - np.asarray(start)) / demo, 1.0)
-    bad = dmp.goal_scaled & ((ratio < 0) | (np.abs(ratio) > MAX_STRETCH))
+    bad = dmp.goal_scaled & ((ratio < 0) | (np.abs(ratio) > MAX_STRETCH) | (np.abs(demo) < MIN_SCALED))
     return dmp.unscaled(bad) if bad.any() else dmp
 
 
@@ -774,6 +821,22 @@ def _undoing(cond: TaskCondition, obs: Observation) -> tuple[Predicate, Predicat
                 return p, q
     return None
 
+
+WAY_SAMPLES = 30
+"""Points per open-gripper piece at which :meth:`Executor._turn` checks the hand's footprint."""
+TRANSIT_SETTLE = 60
+"""Most control steps a transit's last command is held for the hand to arrive."""
+TRANSIT_TOLERANCE = 0.01
+"""Distance (m) from a transit's goal at which the hand has arrived."""
+TRANSIT_EVERY = 10
+"""Every how many control steps of a transit (:meth:`Executor._transit_path`) :meth:`Executor._turn`
+checks the arm's way."""
+SWEEP_TOLERANCE = 0.005
+"""Penetration (m) of the arm into a neighbour on a grasp's way that :meth:`Executor._turn` lets pass (the
+fingertips brush what stands right beside the object)."""
+HOUSING = 0.045
+"""Height (m) of the Panda hand's housing above its fingertips' end-effector point: on the way to a grasp,
+only what stands above the housing is in the footprint's way (the fingers are narrower)."""
 
 PLACE_ABOVE = 0.01
 """Height (m) of a carried object's bottom above the top of what it is set on at the end of a move on top

@@ -67,6 +67,10 @@ def _observation(info: EnvironmentInfo, round_: frozenset[str], lying: frozenset
     )
 
 
+SWEEP_WITHIN = 0.05
+"""Distance (m) up to which :meth:`KitchenWorld.sweep` measures the arm's clearance."""
+
+
 class KitchenWorld:
     """A :class:`KitchenEnv` seen through the environment-information layer (§III-A.2).
 
@@ -208,6 +212,23 @@ class KitchenWorld:
             if point[2] < -0.05:
                 return f"{point[2]:.2f} m is below the table"
         return None
+
+    def sweep(self, positions: np.ndarray, orientations: np.ndarray, ignore: tuple[str, ...]) -> float:
+        """The arm's IK for each pose in turn, each seeded by the last (the current joints first), checked
+        against the scene's collision shapes of the named bodies but ``ignore`` and the table
+        (:meth:`Franka.clearance`)."""
+        robot = self.env.robot
+        bodies = [
+            (b.body_id, b.link_index)
+            for b in self.env.scene.description().bodies
+            if b.kind != "robot" and b.name not in (*ignore, "table")
+        ]
+        seed = robot.joint_positions()
+        qs = []
+        for position, orientation in zip(positions, orientations, strict=True):
+            seed = robot.ik(position, orientation, seed)
+            qs.append(seed)
+        return robot.clearance(qs, bodies, SWEEP_WITHIN)
 
     def ee_pose(self, arms: int = 1) -> tuple[np.ndarray, np.ndarray]:
         ee = self.env.robot.ee_pose()

@@ -111,6 +111,12 @@ class World(Protocol):
         """Why the end effectors cannot reach ``position`` (3k,) m (one point per arm), or None."""
         ...
 
+    def sweep(self, positions: np.ndarray, orientations: np.ndarray, ignore: tuple[str, ...]) -> float:
+        """Least distance (m, negative for penetration, at most 0.05) between the first arm and every
+        object but ``ignore`` and the table, were its end effector to pass through ``positions`` (m, 3)
+        with ``orientations`` (m, 4) xyzw; nothing moves."""
+        ...
+
     def ee_pose(self, arms: int = 1) -> tuple[np.ndarray, np.ndarray]:
         """Positions (3k,) m and orientations (4k,) xyzw of the first ``arms`` end effectors, world
         frame."""

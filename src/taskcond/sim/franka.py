@@ -204,6 +204,28 @@ class Franka:
             p.resetJointState(self.body, j, s[0], s[1], physicsClientId=self.client)
         return pose
 
+    def clearance(self, qs: Sequence[np.ndarray], bodies: Sequence[tuple[int, int]], within: float) -> float:
+        """Least distance (m, negative for penetration, at most ``within``) between the arm's links and
+        the ``bodies`` (body id, link index or -1 for every link) over the joint configurations ``qs``
+        (each (7,) rad), by resetting the joints to each and restoring them with their velocities at the
+        end (no physics step in between)."""
+        states = p.getJointStates(self.body, ARM_JOINTS, physicsClientId=self.client)
+        least = within
+        try:
+            for q in qs:
+                for j, v in zip(ARM_JOINTS, q, strict=True):
+                    p.resetJointState(self.body, j, float(v), physicsClientId=self.client)
+                for body, link in bodies:
+                    extra = {} if link < 0 else {"linkIndexB": link}
+                    for point in p.getClosestPoints(
+                        self.body, body, within, physicsClientId=self.client, **extra
+                    ):
+                        least = min(least, float(point[8]))
+        finally:
+            for j, st in zip(ARM_JOINTS, states, strict=True):
+                p.resetJointState(self.body, j, st[0], st[1], physicsClientId=self.client)
+        return least
+
     def command(self, q: np.ndarray, closed: bool) -> None:
         """Position targets: arm joints ``q`` (7,) rad; gripper closed (pads pushed together with
         :data:`FINGER_FORCE`) or open. Bullet keeps a motor's settings until they are set again, so
