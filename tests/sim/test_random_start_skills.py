@@ -159,3 +159,20 @@ def test_a_grasp_far_from_every_demonstrated_start_goes_to_one_first() -> None:
                 assert result.completed and world.observe().grasped() == "bowl"
         finally:
             env.close()
+
+
+def test_the_arms_sweep_measures_clearance_without_moving_anything() -> None:
+    """Down through the box the arm penetrates it; high above the table it keeps clear; the joints are
+    where they were."""
+    env, world = _scene({})
+    try:
+        before = env.robot.joint_positions()
+        _, down = world.ee_pose()
+        box = np.mean(world.observe().boxes["box"], axis=0)
+        through = np.array([[box[0], box[1], z] for z in np.linspace(0.40, 0.05, 15)])
+        assert world.sweep(through, np.tile(down, (15, 1)), ()) < -0.01
+        high = np.array([[0.35, 0.0, z] for z in np.linspace(0.60, 0.50, 5)])
+        assert world.sweep(high, np.tile(down, (5, 1)), ()) > 0.0
+        assert np.allclose(env.robot.joint_positions(), before)
+    finally:
+        env.close()

@@ -12,8 +12,13 @@ information of the start (§III-A.2) as the state:
   ``bottle inside box`` ends the bottle's earlier relations as subject);
 * **drop** (:data:`DROPPABLE`): a grasp, release, open or close whose effects already hold in the start
   state, and which no earlier step has touched, does nothing;
+* **undone** (:func:`_undone`): an open or close that a later close or open of the same container undoes
+  before any step between them needs it does nothing either ("close everything" planned by a small model
+  as ``open top drawer``, ..., ``close top drawer``);
 * **flaws**: a pre-condition of a step that does not hold in the state before it (relations of the gripper
-  itself excluded: the primitive's own motion achieves them, as in Alg. 1);
+  itself excluded: the primitive's own motion achieves them, as in Alg. 1), the vocabulary's implied ones
+  included (``move A on top of B`` on a container B that can be closed needs ``B closed``:
+  :meth:`_Model._implied`);
 * **repair**, one flaw at a time, first flaw first: either *move* a later step that achieves the missing
   predicate, or *insert* the primitive that achieves it (Cond2Task, :func:`taskcond.primitives.
   task_for_condition`), at every position up to the step that needs it. The candidate with the fewest
