@@ -151,3 +151,19 @@ def test_goal_composes_effects_and_keeps_the_gripper_only_from_a_final_grasp_or_
     assert [str(p) for p in goal_of(("grasp bottle",))] == ["gripper grasping bottle"]
     below = {"move bottle on top of box": _cond("move bottle on top of box", [], ["box below bottle"])}
     assert [str(p) for p in goal_of(["move bottle on top of box"], below.get)] == ["bottle above box"]
+
+
+def test_closing_what_is_closed_is_dropped_after_another_close() -> None:
+    """ "Close the box and the drawers" from a start where the box is open and the top drawer closed: the
+    close of the top drawer is dropped, not given an ``open top drawer`` first."""
+    drawer = {
+        "close top drawer": _cond(
+            "close top drawer",
+            ["gripper not grasping", "top drawer open"],
+            ["gripper not grasping", "top drawer closed"],
+        )
+    }
+    start = _start("gripper not grasping", "box open", "top drawer closed")
+    out = repair(("close box", "close top drawer"), start, lambda t: drawer.get(t) or CONDITIONS[t])
+    assert out.steps == ("close box",)
+    assert [(c.kind, c.task) for c in out.changes] == [("drop", "close top drawer")]

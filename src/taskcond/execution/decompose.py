@@ -65,8 +65,10 @@ def parse_plan(
     return tasks
 
 
-PLACES = frozenset({"move", "move_on_top", "move_into", "move_in_front"})
-"""Primitives that carry an object to a place; the prompt says the object is released after."""
+PLACES = frozenset({"move_on_top", "move_into", "move_in_front"})
+"""Primitives that set an object down at a place; the prompt says the object is released after. A move to
+a position is a carry (the suite's move task ends holding the object): "move it to the target position"
+leaves it held."""
 
 
 def with_releases(tasks: Sequence[str]) -> list[str]:

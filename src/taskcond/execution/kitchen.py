@@ -36,6 +36,7 @@ from taskcond.sim.perception import EnvironmentInfo, Perception, PerceptionConfi
 from taskcond.sim.recording import VideoRecorder
 from taskcond.sim.scene import SceneConfig, dual_arm_config
 from taskcond.tasks.base import PrimitiveTask, Task, TaskInfo
+from taskcond.tasks.close import DOOR_START
 from taskcond.tasks.groundtruth import GroundTruth
 from taskcond.tasks.move import free_goal
 from taskcond.tasks.registry import get_task, list_tasks, make
@@ -287,8 +288,10 @@ RANDOM_TRIES = 200
 
 def random_start(env: KitchenEnv, rng: np.random.Generator, fixed: dict[str, float] | None = None) -> None:
     """A random start state: each articulated container (drawers, box, microwave) open or closed with
-    probability 1/2 (a container of ``fixed`` at its given open fraction instead; the draw is made all the
-    same, so that the rest of the scene does not depend on ``fixed``); then each free object, in the
+    probability 1/2 (open: drawers and the box fully, the microwave's door at the suite's
+    :data:`~taskcond.tasks.close.DOOR_START`, where its close is demonstrated; a container of ``fixed``
+    at its given open fraction instead; the draw is made all the same, so that the rest of the scene does
+    not depend on ``fixed``); then each free object, in the
     scene's order, upright with a uniform yaw at a uniform spot of :data:`RANDOM_AREA` at least
     :data:`RANDOM_MIN_RADIUS` from the Franka's base whose footprint
     (its bounding rectangle at that yaw) keeps :data:`RANDOM_CLEARANCE` from the bounding boxes of the
@@ -312,8 +315,9 @@ def random_start(env: KitchenEnv, rng: np.random.Generator, fixed: dict[str, flo
         for joint in scene.joints.values():  # the moving part itself: a lid, a door
             lo, hi = p.getAABB(joint.body_id, joint.joint_index, physicsClientId=scene.client)
             boxes.append((np.array(lo[:2]), np.array(hi[:2])))
-    for name in scene.joints:
-        drawn = 1.0 if rng.random() < 0.5 else 0.0
+    for name, joint in scene.joints.items():
+        opened = DOOR_START / joint.open_position if name == "microwave" else 1.0
+        drawn = opened if rng.random() < 0.5 else 0.0
         scene.set_joint(name, fixed.get(name, drawn))
     if scene.cloth is not None:
         nodes = scene.cloth_nodes()

@@ -10,8 +10,9 @@ information of the start (§III-A.2) as the state:
   the post-conditions of the steps before it. A predicate holds until a post-condition contradicts it
   (:func:`taskcond.conditions.contradictions`), or until a step places its subject anew (a move's
   ``bottle inside box`` ends the bottle's earlier relations as subject);
-* **drop** (:data:`DROPPABLE`): a grasp, release, open or close whose effects already hold in the start
-  state, and which no earlier step has touched, does nothing;
+* **drop** (:data:`DROPPABLE`): a grasp, release, open or close whose own effect (:func:`named_effects`)
+  holds in the start state and no earlier step has touched it, and whose other post-conditions hold before
+  it (``gripper not grasping`` after an earlier ``close box``), does nothing;
 * **undone** (:func:`_undone`): an open or close that a later close or open of the same container undoes
   before any step between them needs it does nothing either ("close everything" planned by a small model
   as ``open top drawer``, ..., ``close top drawer``);
@@ -253,6 +254,13 @@ class _Model:
             state = apply(state, cond)
         return found
 
+    def state_before(self, plan: Sequence[str], upto: int) -> frozenset[Predicate]:
+        """The state before step ``upto``: the start changed by the steps before it (:func:`apply`)."""
+        state = self.start
+        for task in plan[:upto]:
+            state = apply(state, self.condition(task))
+        return state
+
     def untouched(self, plan: Sequence[str], upto: int) -> frozenset[Predicate]:
         """The start-state predicates that no step before ``upto`` re-achieved or removed."""
         state = self.start
@@ -368,7 +376,8 @@ def _drops(plan: list[str], model: _Model) -> list[Change]:
                 (*named_effects(task), *(q for q in cond.post_conditions if not about_gripper_place(q)))
             )
         )
-        if all(q in model.untouched(plan, i) for q in own):
+        before = model.state_before(plan, i)
+        if all(q in model.untouched(plan, i) for q in named_effects(task)) and all(q in before for q in own):
             changes.append(
                 Change("drop", task, i + 1 + len(changes), f"{_join(own)} already hold(s) at the start")
             )
