@@ -2,12 +2,11 @@
 tasks as given sequences of primitive task names).
 
 The prompt (``prompts/<version>/decompose.txt``) lists the primitive task forms of
-:data:`taskcond.primitives.PRIMITIVES` (v2: with one other wording of each) and the scene's objects, with
-three of the paper's long-horizon tasks as examples. Every answer line must parse as a primitive task
-(:func:`taskcond.primitives.parse_task`) on objects of the scene; an invalid answer is shown its error and
-asked again, a bounded number of times. The prompt's rule "grasp an object before moving it, release it
-after" is then enforced on the release (:func:`with_releases`): a small model often ends "put the mug on
-the box" holding the mug.
+:data:`taskcond.primitives.PRIMITIVES` and the scene's objects, with three of the paper's long-horizon
+tasks as examples. Every answer line must parse as a primitive task (:func:`taskcond.primitives.parse_task`)
+on objects of the scene; an invalid answer is shown its error and asked again, a bounded number of times.
+The prompt's rule "grasp an object before moving it, release it after" is then enforced on the release
+(:func:`with_releases`): a small model often ends "put the mug on the box" holding the mug.
 """
 
 from __future__ import annotations
@@ -21,10 +20,6 @@ from taskcond.primitives import PRIMITIVES, TaskNameError, parse_task
 
 MAX_STEPS = 12
 """Longest plan accepted."""
-DECOMPOSE_VERSION = "v2"
-"""Prompt version of the decomposition: v2 is v1 with each primitive's first other wording (``pour A is
-tilt A``); v1 had the embedded model decompose "pick up the bottle and pour it" as a move into the
-microwave."""
 
 
 class DecompositionError(ValueError):
@@ -118,7 +113,7 @@ def decompose(
     objects: Sequence[str],
     affords: Callable[[str, tuple[str, ...]], str | None] | None = None,
     max_retries: int = 2,
-    version: str = DECOMPOSE_VERSION,
+    version: str = "v1",
     aliases: Mapping[str, str] | None = None,
 ) -> list[str]:
     """Ask the LLM for the primitive tasks of ``instruction`` in order (:func:`with_releases` added),
@@ -130,14 +125,9 @@ def decompose(
         LLMError: the backend failed.
     """
     patterns = "\n".join(f"  {p.pattern}" for p in PRIMITIVES.values())
-    other_words = "; ".join(
-        f"{p.aliases[0]} is {p.pattern}"
-        for p in PRIMITIVES.values()
-        if p.aliases and p.aliases[0].split()[0] != p.pattern.split()[0]
-    )
     text = with_object_names(" ".join(instruction.split()), objects, aliases or {})
     prompt = load_prompt("decompose", version).substitute(
-        patterns=patterns, aliases=other_words, objects=", ".join(objects), instruction=text
+        patterns=patterns, objects=", ".join(objects), instruction=text
     )
     messages = [ChatMessage("user", prompt)]
     error = ""
@@ -159,7 +149,6 @@ def decompose(
 
 
 __all__ = [
-    "DECOMPOSE_VERSION",
     "PLACES",
     "DecompositionError",
     "LLMError",
