@@ -234,6 +234,8 @@ def test_a_moved_object_is_released_after_its_last_move_unless_a_later_step_hand
     kept = ["grasp bottle", "move bottle into box", "release bottle", "close box"]
     assert with_releases(kept) == kept
     assert with_releases(["grasp mug", "tilt mug"]) == ["grasp mug", "tilt mug"]
+    carried = ["grasp bowl", "move bowl to position"]  # a carry to a position ends holding
+    assert with_releases(carried) == carried
     moved_on = ["grasp mug", "move mug in front of box", "move mug on top of box", "release mug"]
     assert with_releases(moved_on) == moved_on
 
