@@ -290,7 +290,7 @@ class Executor:
             if attempt > 0 and (undo := _undoing(cond, obs)):
                 self.log.not_retried(task, depth, undo, missing, attempt)
                 return
-            self.satisfy(cond if attempt == 0 else _part_way(cond, obs), (*stack, task), depth, deadline)
+            self.satisfy(_part_way(cond, obs), (*stack, task), depth, deadline)
             self.control(task, cond, depth, deadline)
             missing = _missing(cond.post_conditions, self.world.observe())
             if _achieved(cond, missing):
@@ -844,10 +844,11 @@ when the demonstrated height would push it more than this into it (:meth:`Execut
 
 
 def _part_way(cond: TaskCondition, obs: Observation) -> TaskCondition:
-    """``cond`` for another attempt: without a container pre-condition (``drawer open``) whose container
-    the post-conditions change (``drawer closed``) and which ``obs`` shows neither open nor closed. The
-    last attempt left it part of the way; the primitive goes on from there, where satisfying the
-    pre-condition would raise the opposite primitive (a cycle)."""
+    """``cond`` for an attempt: without a container pre-condition (``drawer open``) whose container the
+    post-conditions change (``drawer closed``) and which ``obs`` shows neither open nor closed. A last
+    attempt, or something else (a carried object pushing a drawer), left it part of the way; the primitive
+    goes on from there, where satisfying the pre-condition would raise the opposite primitive (a cycle:
+    open needs it closed, close needs it open)."""
 
     def part_way(pred: Predicate) -> bool:
         return (
