@@ -127,7 +127,7 @@ class ExecutionConfig:
             also the least gap (m) :meth:`Executor._aside` keeps around a placed object.
         approach_distance: a one-arm grasp whose hand is farther than this (m) from where every
             demonstration of it started, relative to the target, first goes to the highest such start
-            (:meth:`Executor._approach`); None never does.
+            (:meth:`Executor._far`, :meth:`Executor._transit`); None never does.
     """
 
     budget: float = 60.0
@@ -181,7 +181,7 @@ class Aim:
         aside: (3,) m the goal is moved horizontally from the demonstrated spot on top of the target
             (:meth:`Executor._aside`), already added to ``target``; zero as demonstrated.
         approach: (3,) m, world frame: where the hand goes before the skill runs, the skill's
-            demonstrated start relative to the target (:meth:`Executor._approach`); None to start where it
+            demonstrated start relative to the target (:meth:`Executor._transit`); None to start where it
             is.
     """
 
@@ -545,9 +545,11 @@ class Executor:
         :attr:`ExecutionConfig.clearance` (an open drawer, a neighbouring bottle, the box's corner passed
         on the way down; a grazed corner is left to Alg. 2 for a skill demonstrated from about here, as
         demonstrations near such neighbours succeed) or at all (``far``: a skill demonstrated in another
-        scene). Then the reachable side that reaches least into a box, and then keeps the largest gap,
-        wins (the demonstrated one on a tie). A hand housing against a neighbour cannot be repaired by Alg.
-        2's goal shifts, which move the fingers off the wall they are to hold."""
+        scene), or the arm itself would meet a neighbour on the way (:meth:`World.sweep`, more than
+        :data:`SWEEP_TOLERANCE` into it). Then the reachable side that passes clear, then reaches least
+        into a box, then keeps the largest gap, wins (the demonstrated one on a tie). A hand housing
+        against a neighbour cannot be repaired by Alg. 2's goal shifts, which move the fingers off the wall
+        they are to hold."""
         arms = self.world.arms
         others = [
             (lo, hi) for name, (lo, hi) in obs.boxes.items() if name not in (target_name, "table", *arms)
@@ -583,10 +585,9 @@ class Executor:
                 point, quat = goal, quats[-1][-1]
             return np.concatenate(points)[:, :3], np.concatenate(quats)[:, :4]
 
-        def clearance(turn: float) -> tuple[bool, float, float]:
-            """(the arm passes clear, − deepest reach of a footprint sample into a box, least gap):
-            larger is clearer."""
-            points, quats = way(turn)
+        def clearance(points: np.ndarray, quats: np.ndarray) -> tuple[bool, float, float]:
+            """Of a way (:func:`way`): (the arm passes clear, − deepest reach of a footprint sample into a
+            box, least gap): larger is clearer."""
             axes = Rotation.from_quat(quats).apply([0.0, 1.0, 0.0])
             flat = axes[:, :2] / np.maximum(np.linalg.norm(axes[:, :2], axis=1, keepdims=True), 1e-9)
             across = np.column_stack([-flat[:, 1], flat[:, 0]])
@@ -605,12 +606,13 @@ class Executor:
             clear = self.world.sweep(points, quats, (target_name,)) > -SWEEP_TOLERANCE
             return clear, -depth, gap
 
-        best, best_clearance = 0.0, clearance(0.0)
+        best, best_clearance = 0.0, clearance(*way(0.0))
         if best_clearance[0] and -best_clearance[1] <= (0.0 if far else self.config.clearance):
             return 0.0
         for turn in (math.pi / 2, -math.pi / 2, math.pi):
-            reachable = all(self.world.reach_error(q) is None for q in way(turn)[0])
-            if reachable and (score := clearance(turn)) > best_clearance:
+            points, quats = way(turn)
+            reachable = all(self.world.reach_error(q) is None for q in points)
+            if reachable and (score := clearance(points, quats)) > best_clearance:
                 best, best_clearance = turn, score
         return best
 
