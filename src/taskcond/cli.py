@@ -1310,7 +1310,8 @@ def reproduce(
         list[str] | None,
         typer.Option(
             "--column",
-            help="Only these columns (repeatable): generation-llm, generation-env, generalization-llm "
+            help="Only these columns (repeatable): generation-llm, generation-env, generalization-llm, "
+            "generalization-grounded "
             "(Table II); none, env, llm (Tables III, IV). The others show as not run.",
         ),
     ] = None,

@@ -137,6 +137,7 @@ def table_specs() -> dict[str, TableSpec]:
             Column("generation-env", "Generation, FromEnv", "generation-env"),
             Column("generalization-llm", "Generalization, LLM", "generalization-llm"),
             Column("generalization-env", "Generalization, FromEnv", "generalization-env"),
+            Column("generalization-grounded", "Generalization, LLM + demo", None),
         ),
         blocks=(
             Block(
@@ -147,6 +148,7 @@ def table_specs() -> dict[str, TableSpec]:
                     "generation-llm": "generation",
                     "generation-env": "env",
                     "generalization-llm": "generalization",
+                    "generalization-grounded": "generalization-grounded",
                 },
                 fixed={"env": max(len(r.tasks) for r in _primitive_rows())},
                 notes={
@@ -154,7 +156,9 @@ def table_specs() -> dict[str, TableSpec]:
                     "primitive's example for the task's objects); 5 object sets per primitive, trial k uses "
                     "set k mod 5 and shuffles the examples with seed k",
                     "generalization-llm": "the same, with the primitive's own examples left out "
-                    "(chain-of-thought prompt)",
+                    "(the default prompt version: the code form for a left-out primitive)",
+                    "generalization-grounded": "beyond the paper: the same generalization answer, grounded "
+                    "in the suite's demonstration of the primitive (taskcond.grounding; `--method llm+demo`)",
                     "generation-env": "the condition read from the environment in each demonstration of "
                     "the suite's tasks of the primitive (one per task/object pair), correct = it holds "
                     "every pre-, post-condition and collision of the reference; it also holds the "
@@ -522,12 +526,15 @@ def condition_trial_runner(
     generator_factory: Callable[[], Any], library_factory: Callable[[], Any]
 ) -> Callable[[Job], dict[str, Any]]:
     """A function scoring one Table II trial as a results record: ``generation``/``generalization``
-    with the LLM (:func:`~taskcond.evaluation.score_trial`), or ``env``: the FromEnv condition the
-    skill library learned from the ``seed``-th demonstrated suite task of the primitive, which is correct
-    when it :func:`covers` the reference condition the LLM is scored with (the generator and library are
-    built on first use)."""
+    with the LLM (:func:`~taskcond.evaluation.score_trial`); ``generalization-grounded``: the same
+    generalization answer (the same prompt and seed, so a cached one) grounded in the library's
+    demonstration of the primitive, correct when the grounded condition matches the reference; or
+    ``env``: the FromEnv condition the skill library learned from the ``seed``-th demonstrated suite task
+    of the primitive, which is correct when it :func:`covers` the reference condition the LLM is scored
+    with (the generator and library are built on first use)."""
     from taskcond.evaluation import score_trial
     from taskcond.examples import reference_condition
+    from taskcond.execution.sources import demonstration_evidence
     from taskcond.primitives import parse_task
 
     made: dict[str, Any] = {}
@@ -551,16 +558,38 @@ def condition_trial_runner(
             }
         if "generator" not in made:
             made["generator"] = generator_factory()
-        outcome = score_trial(made["generator"], trial.task, trial.method, index)
+        if trial.method != "generalization-grounded":
+            outcome = score_trial(made["generator"], trial.task, trial.method, index)
+            return {**_scored(trial, outcome), "correct": outcome.correct, "answer": outcome.answer}
+        if "library" not in made:
+            made["library"] = library_factory()
+        library = made["library"]
+        outcome = score_trial(
+            made["generator"],
+            trial.task,
+            "generalization",
+            index,
+            evidence=lambda task: demonstration_evidence(library, task.name),
+        )
         return {
-            **trial.to_dict(),
-            "name": outcome.task,
-            "correct": outcome.correct,
-            "seconds": round(outcome.seconds, 3),
-            "error": outcome.error,
+            **_scored(trial, outcome),
+            "correct": bool(outcome.grounded),
+            "answer": outcome.grounded_answer,
+            "repairs": outcome.repairs,
+            "extra_relations": outcome.extra_relations,
         }
 
     return run
+
+
+def _scored(trial: Job, outcome: Any) -> dict[str, Any]:
+    """The fields every LLM trial's record has."""
+    return {
+        **trial.to_dict(),
+        "name": outcome.task,
+        "seconds": round(outcome.seconds, 3),
+        "error": outcome.error,
+    }
 
 
 def covers(condition: Any, reference: Any) -> bool:
