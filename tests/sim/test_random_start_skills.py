@@ -14,7 +14,7 @@ pytest.importorskip("pybullet")
 import pybullet
 
 from taskcond.envs.kitchen import KitchenEnv
-from taskcond.execution.executor import ExecutionConfig, Executor
+from taskcond.execution.executor import BACK_OFF_HEIGHT, ExecutionConfig, Executor
 from taskcond.execution.kitchen import (
     RANDOM_MIN_RADIUS,
     FreeTask,
@@ -174,5 +174,54 @@ def test_the_arms_sweep_measures_clearance_without_moving_anything() -> None:
         high = np.array([[0.35, 0.0, z] for z in np.linspace(0.60, 0.50, 5)])
         assert world.sweep(high, np.tile(down, (5, 1)), ()) > 0.0
         assert np.allclose(env.robot.joint_positions(), before)
+    finally:
+        env.close()
+
+
+def test_a_release_raised_to_free_the_hand_sets_the_object_down_first() -> None:
+    """The bottle held 12 cm above the table when `open box` needs a free hand: Alg. 1 raises `release
+    bottle`, which first lowers the bottle onto the table, so it stands where it was let go."""
+    library = learn_library(None, ["grasp-bottle", "release-bottle", "open-box"])
+    env, world = _scene({"bottle": (0.35, 0.15)})
+    try:
+        executor = Executor(world, library, method="env", source=EnvConditions(library))
+        assert executor.run(["grasp bottle"]).completed and world.observe().grasped() == "bottle"
+        position, orientation = world.ee_pose()
+        lift = np.array([0.0, 0.0, 0.12])
+        for k in range(1, 41):
+            env.step(np.concatenate([position + lift * min(1.0, k / 30), orientation, [1.0]]))
+        assert world.observe().boxes["bottle"][0][2] > 0.08
+        result = executor.run(["open box"])
+        (down,) = [e for e in result.events if e.kind == "set_down"]
+        assert down.task == "release bottle" and down.data["drop"] > 0.07
+        obs = world.observe()
+        assert obs.grasped() is None and "bottle" not in obs.lying
+        assert obs.boxes["bottle"][0][2] < 0.01  # on the table, upright
+    finally:
+        env.close()
+
+
+def test_a_grasp_tried_again_first_opens_the_hand_and_lifts_it() -> None:
+    """Before a grasp is tried again the hand opens where it missed and rises straight up
+    BACK_OFF_HEIGHT, without moving the object it stood beside."""
+    library = learn_library(None, ["grasp-bowl"])
+    env, world = _scene({"bowl": (0.45, -0.10)})
+    try:
+        ee = env.robot.ee_pose()
+        low = np.array([0.45, -0.10 + 0.09, 0.10])
+        for k in range(1, 61):
+            position = ee.position + (low - ee.position) * min(1.0, k / 40)
+            env.step(np.concatenate([position, ee.orientation, [1.0]]))
+        here, _ = world.ee_pose()
+        bowl = world.observe().centers["bowl"]
+        executor = Executor(world, library, method="env", source=EnvConditions(library))
+        executor._back_off("grasp bowl", 0)
+        for _ in range(20):
+            env.step(np.concatenate([*executor._last[:2], [executor._last[2]]]))
+        there, _ = world.ee_pose()
+        assert there[2] - here[2] == pytest.approx(BACK_OFF_HEIGHT, abs=0.02)
+        assert np.linalg.norm(there[:2] - here[:2]) < 0.01
+        assert executor._last[2] == 0.0  # open
+        assert np.linalg.norm(world.observe().centers["bowl"] - bowl) < 0.005
     finally:
         env.close()

@@ -120,6 +120,24 @@ class EventLog:
             {"pre_condition": str(pre), "for": for_task},
         )
 
+    def back_off(self, task: str, depth: int, height: float) -> None:
+        self.emit(
+            "back_off",
+            task,
+            depth,
+            f"{task}: opening the hand and lifting it {height * 100:.0f} cm before trying again",
+            {"height": height},
+        )
+
+    def set_down(self, task: str, depth: int, held: str, drop: float) -> None:
+        self.emit(
+            "set_down",
+            task,
+            depth,
+            f"{task}: setting {held} down {drop * 100:.0f} cm first (the hand is freed for another task)",
+            {"held": held, "drop": round(drop, 4)},
+        )
+
     def primitive(
         self,
         task: str,

@@ -85,6 +85,16 @@ METHODS: tuple[Method, ...] = ("llm", "llm+demo", "env", "none")
 demonstrations' environment information (FromEnv), or none (DMPs only)."""
 
 
+APPROACHED = ("grasp", "open", "close")
+"""The primitives that start with an empty hand at their target: carried to their demonstrated start
+first when the hand is far from it (:meth:`Executor._far`)."""
+CARRIES = ("move", "move_on_top", "move_into", "move_in_front")
+"""The primitives that carry the object they name: when it is held and the hand is far from their
+demonstrated start, it is carried there first, over what lies on the way (:meth:`Executor._carry_height`)."""
+CARRY_MARGIN = 0.03
+"""Clearance (m) a carried object keeps above what it is carried over, and around it."""
+
+
 class ExecutionError(RuntimeError):
     """Execution cannot continue; the message is the one-line reason."""
 
@@ -183,6 +193,8 @@ class Aim:
         approach: (3,) m, world frame: where the hand goes before the skill runs, the skill's
             demonstrated start relative to the target (:meth:`Executor._transit`); None to start where it
             is.
+        over: least height (m, world z) of the hand on its way to ``approach`` when it carries an object
+            (:meth:`Executor._carry_height`); None for an empty hand.
     """
 
     task: str
@@ -192,6 +204,7 @@ class Aim:
     turn: float = 0.0
     aside: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(3))
     approach: np.ndarray | None = None
+    over: float | None = None
 
     @property
     def arms(self) -> int:
@@ -290,7 +303,11 @@ class Executor:
             if attempt > 0 and (undo := _undoing(cond, obs)):
                 self.log.not_retried(task, depth, undo, missing, attempt)
                 return
+            if attempt > 0 and parse_task(task).primitive.id == "grasp":
+                self._back_off(task, depth)
             self.satisfy(_part_way(cond, obs), (*stack, task), depth, deadline)
+            if depth > 0 and parse_task(task).primitive.id == "release":
+                self._set_down(task, depth)
             self.control(task, cond, depth, deadline)
             missing = _missing(cond.post_conditions, self.world.observe())
             if _achieved(cond, missing):
@@ -331,6 +348,48 @@ class Executor:
         if still:
             raise ExecutionError(f"could not satisfy {fmt_items(still)} for {stack[-1]!r}", "unsatisfiable")
 
+    def _back_off(self, task: str, depth: int) -> None:
+        """Beyond the paper: before a grasp is tried again, open the hand and lift it straight up by
+        :data:`BACK_OFF_HEIGHT` (or to the height of the highest demonstrated start, if that is lower),
+        so that the object the missed grasp disturbed settles and the next try starts above it, not
+        beside it in whatever pose the miss left the hand (a retry from there brushes the object over)."""
+        here, quat = self.world.ee_pose()
+        opened = 0.0
+        self.log.back_off(task, depth, BACK_OFF_HEIGHT)
+        for _ in range(BACK_OFF_RELEASE):
+            self._step(here, quat, opened)
+        goal = here + np.array([0.0, 0.0, BACK_OFF_HEIGHT])
+        steps = max(1, math.ceil(BACK_OFF_HEIGHT / (self.config.speed_limit * self.world.dt)))
+        for k in range(1, steps + 1):
+            self._step(here + (goal - here) * (k / steps), quat, opened)
+
+    def _set_down(self, task: str, depth: int) -> None:
+        """Beyond the paper: before a release that Alg. 1 raised to free the hand (another primitive needs
+        ``gripper not grasping``), lower the held object straight down onto what lies under it
+        (:func:`_support_below`) until it touches something or is :data:`SET_DOWN_GAP` above it, so that
+        it is put down rather than dropped from where the hand happened to be (a dropped bottle falls
+        over, and no grasp skill picks up a lying object)."""
+        obs = self.world.observe()
+        held = parse_task(task).objects[0]
+        if obs.grasped() != held or held not in obs.boxes:
+            return
+        lower, _ = obs.boxes[held]
+        support = _support_below(held, obs, self.world.arms)
+        if support is None or float(lower[2]) - support <= 2 * SET_DOWN_GAP:
+            return
+        drop = float(lower[2]) - support - SET_DOWN_GAP
+        here, quat = self.world.ee_pose()
+        gripper = self._last[2] if hasattr(self, "_last") else 1.0
+        self.log.set_down(task, depth, held, drop)
+        goal = here - np.array([0.0, 0.0, drop])
+        steps = max(1, math.ceil(drop / (self.config.speed_limit * self.world.dt)))
+        for k in range(1, steps + 1):
+            self._step(here + (goal - here) * (k / steps), quat, gripper)
+            if any(
+                held in (t.a, t.b) and {t.a, t.b}.isdisjoint(self.world.arms) for t in self.world.touches()
+            ):
+                break
+
     def _cond2task(self, pre: Predicate, obs: Observation, stack: tuple[str, ...], depth: int) -> str:
         """Alg. 1 line 6 (Cond2Task, :func:`taskcond.primitives.task_for_condition`): the primitive task
         that achieves the unmet pre-condition ``pre`` of ``stack[-1]``.
@@ -370,7 +429,10 @@ class Executor:
         if aim.approach is not None:
             first = aim.skill.segments[0]
             self._transit(
-                aim.approach, first.orientation(1.0, self.world.ee_pose()[1], aim.turn), first.gripper
+                aim.approach,
+                first.orientation(1.0, self.world.ee_pose()[1], aim.turn),
+                first.gripper,
+                aim.over,
             )
         adjustments = 0
         for seg in aim.skill.segments:
@@ -419,8 +481,14 @@ class Executor:
                 f"{len(self.world.arms)}",
                 "no_skill",
             )
-        far = grasp and target is not None and self._far(task, skill, here - target)
-        if far:
+        parsed = parse_task(task)
+        carry = parsed.primitive.id in CARRIES and obs.grasped() == parsed.objects[0]
+        far = (
+            (parsed.primitive.id in APPROACHED or carry)
+            and target is not None
+            and self._far(task, skill, here - target)
+        )
+        if far and not carry:
             skill = max(self.library.candidates(task), key=lambda s: float(s.start_offset[2]))
         turn = 0.0
         if grasp and target is not None and target_name in obs.round and skill.segments[0].anchor == "target":
@@ -428,10 +496,29 @@ class Executor:
         aside = np.zeros(3)
         if parse_task(task).primitive.id == "move_on_top" and target is not None and target_name is not None:
             aside = self._aside(skill, target_name, target, obs)
-        approach = target + turned(skill.start_offset, turn) if far and target is not None else None
+        approach = target + aside + turned(skill.start_offset, turn) if far and target is not None else None
+        over = None
+        if carry and approach is not None:
+            over = self._carry_height(parsed.objects[0], here, approach, obs)
         return Aim(
-            task, skill, target_name, None if target is None else target + aside, turn, aside, approach
+            task, skill, target_name, None if target is None else target + aside, turn, aside, approach, over
         )
+
+    def _carry_height(self, held: str, here: np.ndarray, goal: np.ndarray, obs: Observation) -> float:
+        """The least height (m, world z) of the hand carrying ``held`` from ``here`` to ``goal`` (each
+        (3,) m) over everything whose bounding box the straight way passes near (within half the held
+        object's width and :data:`CARRY_MARGIN`): their highest top plus the height of the hand above the
+        held object's bottom plus :data:`CARRY_MARGIN`."""
+        lower, upper = obs.boxes[held]
+        pad = float(np.max(upper[:2] - lower[:2])) / 2 + CARRY_MARGIN
+        way = here[:2] + np.linspace(0.0, 1.0, 25)[:, None] * (goal[:2] - here[:2])
+        tops = [
+            float(hi[2])
+            for name, (lo, hi) in obs.boxes.items()
+            if name not in (held, "table", *self.world.arms)
+            and np.any(np.all((way > lo[:2] - pad) & (way < hi[:2] + pad), axis=1))
+        ]
+        return max(tops, default=0.0) + float(here[2] - lower[2]) + CARRY_MARGIN
 
     def _far(self, task: str, skill: Skill, offset: np.ndarray) -> bool:
         """Whether the hand, at ``offset`` (3,) m from the target, is farther than
@@ -442,15 +529,17 @@ class Executor:
             return False
         return float(np.linalg.norm(skill.start_offset - offset)) > limit
 
-    def _transit(self, goal: np.ndarray, orientation: np.ndarray, gripper: float) -> None:
+    def _transit(
+        self, goal: np.ndarray, orientation: np.ndarray, gripper: float, over: float | None = None
+    ) -> None:
         """Beyond the paper: carry the hand to ``goal`` (3,) m, world frame, before a skill that was
         demonstrated from there, so that its DMP starts where it was learned (a DMP started far from its
         demonstration keeps the demonstrated path's shape and brings it, scaled, into whatever lies
         between), along :meth:`_transit_path`, turning the hand to ``orientation`` (4,) xyzw on the way
         (the demonstration's first; turned there at once, the arm swings the hand off its path) and holding
-        the ``gripper`` command."""
+        the ``gripper`` command; at least ``over`` (m, world z) high on the way across, if given."""
         here, here_q = self.world.ee_pose()
-        path = self._transit_path(here, goal)
+        path = self._transit_path(here, goal, over)
         turns = self._transit_orientations(here_q, orientation, len(path))
         for point, quat in zip(path[1:], turns[1:], strict=True):
             self._step(point, quat, gripper)
@@ -465,10 +554,11 @@ class Executor:
         slerp = Slerp([0.0, 1.0], Rotation.from_quat([start, end]))
         return slerp(np.linspace(0.0, 1.0, n)).as_quat()
 
-    def _transit_path(self, start: np.ndarray, goal: np.ndarray) -> np.ndarray:
+    def _transit_path(self, start: np.ndarray, goal: np.ndarray, over: float | None = None) -> np.ndarray:
         """(m, 3) positions, one per control step, from ``start`` to ``goal`` (each (3,) m): straight up to
-        the higher of the two heights, across, and down, at :attr:`ExecutionConfig.speed_limit`."""
-        top = max(float(start[2]), float(goal[2]))
+        the higher of the two heights (and of ``over``, m), across, and down, at
+        :attr:`ExecutionConfig.speed_limit`."""
+        top = max(float(start[2]), float(goal[2]), -math.inf if over is None else over)
         step = self.config.speed_limit * self.world.dt
         points, here = [np.asarray(start, float)], np.asarray(start, float)
         for waypoint in (np.array([*start[:2], top]), np.array([*goal[:2], top]), np.asarray(goal, float)):
@@ -826,6 +916,13 @@ def _undoing(cond: TaskCondition, obs: Observation) -> tuple[Predicate, Predicat
 
 WAY_SAMPLES = 30
 """Points per open-gripper piece at which :meth:`Executor._turn` checks the hand's footprint."""
+BACK_OFF_HEIGHT = 0.15
+"""How far (m) the open hand rises before a grasp is tried again (:meth:`Executor._back_off`)."""
+BACK_OFF_RELEASE = 10
+"""Control steps the hand stays where it missed, open, before it rises."""
+SET_DOWN_GAP = 0.01
+"""Height (m) above its support at which a held object is let go when Alg. 1 frees the hand
+(:meth:`Executor._set_down`)."""
 TRANSIT_SETTLE = 60
 """Most control steps a transit's last command is held for the hand to arrive."""
 TRANSIT_TOLERANCE = 0.01
@@ -862,6 +959,24 @@ def _part_way(cond: TaskCondition, obs: Observation) -> TaskCondition:
 
     pre = tuple(q for q in cond.pre_conditions if not part_way(q))
     return cond if len(pre) == len(cond.pre_conditions) else dataclasses.replace(cond, pre_conditions=pre)
+
+
+def _support_below(obj: str, obs: Observation, arms: Sequence[str]) -> float | None:
+    """The height (m, world z) of the highest top among the bounding boxes under the middle of ``obj``'s
+    footprint (its central half in x and y: a neighbour's box that only overlaps a corner of a round
+    object's is beside it, not under it) and below its bottom, or None when nothing is under it."""
+    lower, upper = obs.boxes[obj]
+    middle, half = (lower[:2] + upper[:2]) / 2, (upper[:2] - lower[:2]) / 4
+    tops = [
+        float(hi[2])
+        for name, (lo, hi) in obs.boxes.items()
+        if name != obj
+        and name not in arms
+        and hi[2] <= lower[2] + SET_DOWN_GAP
+        and np.all(lo[:2] < middle + half)
+        and np.all(hi[:2] > middle - half)
+    ]
+    return max(tops, default=None)
 
 
 def _about_gripper_place(pred: Predicate) -> bool:
