@@ -20,7 +20,7 @@ from taskcond.conditions import (
 from taskcond.dmp import rollout
 from taskcond.execution.collisions import CollisionMonitor, Landing, allowed_for_arms, landings
 from taskcond.execution.decompose import DecompositionError, parse_plan, with_object_names, with_releases
-from taskcond.execution.executor import _part_way
+from taskcond.execution.executor import CARRY_MARGIN, _carry_height, _part_way, _support_below
 from taskcond.execution.skills import (
     HALF_TURN,
     Demonstration,
@@ -389,3 +389,42 @@ def test_an_objects_other_name_is_replaced_by_its_name_before_the_llm_reads_it()
     assert with_object_names(text, objects, aliases) == (
         "Put the bowl in the top drawer, then the mug in the lunch box and the cupboard."
     )
+
+
+def _boxes(**boxes: tuple[tuple[float, ...], tuple[float, ...]]) -> Observation:
+    return Observation(
+        frozenset(), {}, (), boxes={k: (np.array(lo), np.array(hi)) for k, (lo, hi) in boxes.items()}
+    )
+
+
+def test_a_carry_goes_over_what_stands_on_its_way_and_not_over_the_table() -> None:
+    """The mug (bottom 2 cm up, the hand 8 cm above that) carried past the box (top 0.15 m) clears it by
+    the margin; the table under the whole way and the can off the way do not count."""
+    obs = _boxes(
+        table=((-0.3, -0.8, -0.05), (1.0, 0.8, 0.0)),
+        mug=((0.26, -0.04, 0.02), (0.34, 0.04, 0.11)),
+        box=((0.45, -0.05, 0.0), (0.55, 0.05, 0.15)),
+        can=((0.45, 0.40, 0.0), (0.50, 0.45, 0.30)),
+        gripper=((0.28, -0.02, 0.09), (0.32, 0.02, 0.15)),
+    )
+    here, goal = np.array([0.30, 0.0, 0.10]), np.array([0.70, 0.0, 0.10])
+    assert _carry_height("mug", here, goal, obs, ("gripper",)) == pytest.approx(0.15 + 0.08 + CARRY_MARGIN)
+    beside = np.array([0.30, 0.30, 0.10])
+    assert _carry_height("mug", here, beside, obs, ("gripper",)) == pytest.approx(0.08 + CARRY_MARGIN)
+
+
+def test_an_object_is_set_down_on_what_is_under_its_middle() -> None:
+    """Under the bottle's middle: the box's top, while a can whose box only reaches a corner of the
+    bottle's is beside it; the can's top once it reaches the middle; nothing under an object held beyond
+    the table."""
+    obs = _boxes(
+        table=((-0.3, -0.8, -0.05), (1.0, 0.8, 0.0)),
+        bottle=((0.46, -0.04, 0.25), (0.54, 0.04, 0.38)),
+        box=((0.40, -0.10, 0.0), (0.60, 0.10, 0.15)),
+        can=((0.52, 0.02, 0.0), (0.60, 0.10, 0.20)),
+        far=((1.2, 1.2, 0.3), (1.3, 1.3, 0.4)),
+    )
+    assert _support_below("bottle", obs, ()) == pytest.approx(0.15)  # the can is under a corner only
+    obs.boxes["can"] = (np.array([0.49, -0.01, 0.0]), np.array([0.60, 0.10, 0.20]))
+    assert _support_below("bottle", obs, ()) == pytest.approx(0.20)
+    assert _support_below("far", obs, ()) is None

@@ -90,7 +90,7 @@ APPROACHED = ("grasp", "open", "close")
 first when the hand is far from it (:meth:`Executor._far`)."""
 CARRIES = ("move", "move_on_top", "move_into", "move_in_front")
 """The primitives that carry the object they name: when it is held and the hand is far from their
-demonstrated start, it is carried there first, over what lies on the way (:meth:`Executor._carry_height`)."""
+demonstrated start, it is carried there first, over what lies on the way (:func:`_carry_height`)."""
 CARRY_MARGIN = 0.03
 """Clearance (m) a carried object keeps above what it is carried over, and around it."""
 
@@ -194,7 +194,7 @@ class Aim:
             demonstrated start relative to the target (:meth:`Executor._transit`); None to start where it
             is.
         over: least height (m, world z) of the hand on its way to ``approach`` when it carries an object
-            (:meth:`Executor._carry_height`); None for an empty hand.
+            (:func:`_carry_height`); None for an empty hand.
     """
 
     task: str
@@ -499,26 +499,10 @@ class Executor:
         approach = target + aside + turned(skill.start_offset, turn) if far and target is not None else None
         over = None
         if carry and approach is not None:
-            over = self._carry_height(parsed.objects[0], here, approach, obs)
+            over = _carry_height(parsed.objects[0], here, approach, obs, self.world.arms)
         return Aim(
             task, skill, target_name, None if target is None else target + aside, turn, aside, approach, over
         )
-
-    def _carry_height(self, held: str, here: np.ndarray, goal: np.ndarray, obs: Observation) -> float:
-        """The least height (m, world z) of the hand carrying ``held`` from ``here`` to ``goal`` (each
-        (3,) m) over everything whose bounding box the straight way passes near (within half the held
-        object's width and :data:`CARRY_MARGIN`): their highest top plus the height of the hand above the
-        held object's bottom plus :data:`CARRY_MARGIN`."""
-        lower, upper = obs.boxes[held]
-        pad = float(np.max(upper[:2] - lower[:2])) / 2 + CARRY_MARGIN
-        way = here[:2] + np.linspace(0.0, 1.0, 25)[:, None] * (goal[:2] - here[:2])
-        tops = [
-            float(hi[2])
-            for name, (lo, hi) in obs.boxes.items()
-            if name not in (held, "table", *self.world.arms)
-            and np.any(np.all((way > lo[:2] - pad) & (way < hi[:2] + pad), axis=1))
-        ]
-        return max(tops, default=0.0) + float(here[2] - lower[2]) + CARRY_MARGIN
 
     def _far(self, task: str, skill: Skill, offset: np.ndarray) -> bool:
         """Whether the hand, at ``offset`` (3,) m from the target, is farther than
@@ -959,6 +943,25 @@ def _part_way(cond: TaskCondition, obs: Observation) -> TaskCondition:
 
     pre = tuple(q for q in cond.pre_conditions if not part_way(q))
     return cond if len(pre) == len(cond.pre_conditions) else dataclasses.replace(cond, pre_conditions=pre)
+
+
+def _carry_height(
+    held: str, here: np.ndarray, goal: np.ndarray, obs: Observation, arms: Sequence[str]
+) -> float:
+    """The least height (m, world z) of the hand carrying ``held`` from ``here`` to ``goal`` (each
+    (3,) m) over everything whose bounding box the straight way passes near (within half the held
+    object's width and :data:`CARRY_MARGIN`), except a surface under the whole way (the table): their
+    highest top plus the height of the hand above the held object's bottom plus :data:`CARRY_MARGIN`."""
+    lower, upper = obs.boxes[held]
+    pad = float(np.max(upper[:2] - lower[:2])) / 2 + CARRY_MARGIN
+    way = here[:2] + np.linspace(0.0, 1.0, 25)[:, None] * (goal[:2] - here[:2])
+    tops = []
+    for name, (lo, hi) in obs.boxes.items():
+        near = np.all((way > lo[:2] - pad) & (way < hi[:2] + pad), axis=1)
+        under = np.all((way > lo[:2]) & (way < hi[:2]))
+        if name not in (held, *arms) and near.any() and not under:
+            tops.append(float(hi[2]))
+    return max(tops, default=0.0) + float(here[2] - lower[2]) + CARRY_MARGIN
 
 
 def _support_below(obj: str, obs: Observation, arms: Sequence[str]) -> float | None:
