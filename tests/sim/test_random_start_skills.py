@@ -13,6 +13,7 @@ pytest.importorskip("pybullet")
 
 import pybullet
 
+from taskcond.conditions import ContainerState
 from taskcond.envs.kitchen import KitchenEnv
 from taskcond.execution.executor import BACK_OFF_HEIGHT, ExecutionConfig, Executor
 from taskcond.execution.kitchen import (
@@ -215,7 +216,7 @@ def test_a_grasp_tried_again_first_opens_the_hand_and_lifts_it() -> None:
         here, _ = world.ee_pose()
         bowl = world.observe().centers["bowl"]
         executor = Executor(world, library, method="env", source=EnvConditions(library))
-        executor._back_off("grasp bowl", 0)
+        executor._back_off("grasp bowl", 0, "before trying again")
         for _ in range(20):
             env.step(np.concatenate([*executor._last[:2], [executor._last[2]]]))
         there, _ = world.ee_pose()
@@ -223,5 +224,24 @@ def test_a_grasp_tried_again_first_opens_the_hand_and_lifts_it() -> None:
         assert np.linalg.norm(there[:2] - here[:2]) < 0.01
         assert executor._last[2] == 0.0  # open
         assert np.linalg.norm(world.observe().centers["bowl"] - bowl) < 0.005
+    finally:
+        env.close()
+
+
+def test_an_open_far_from_its_demonstrated_start_goes_there_first_and_opens() -> None:
+    """The hand low at the table's side, 0.35 m from where the box's opening was demonstrated:
+    the executor carries it to that start first, and the lid opens."""
+    library = learn_library(None, ["open-box"])
+    env, world = _scene({})
+    try:
+        ee = env.robot.ee_pose()
+        away = np.array([0.40, -0.30, 0.20])
+        for k in range(1, 61):
+            position = ee.position + (away - ee.position) * min(1.0, k / 40)
+            env.step(np.concatenate([position, ee.orientation, [0.0]]))
+        result = Executor(world, library, method="env", source=EnvConditions(library)).run(["open box"])
+        (aim,) = [e for e in result.events if e.kind == "primitive"][:1]
+        assert "demonstrated start" in aim.message
+        assert result.completed and world.observe().holds(ContainerState("box", True))
     finally:
         env.close()

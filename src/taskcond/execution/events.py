@@ -120,12 +120,12 @@ class EventLog:
             {"pre_condition": str(pre), "for": for_task},
         )
 
-    def back_off(self, task: str, depth: int, height: float) -> None:
+    def back_off(self, task: str, depth: int, height: float, why: str) -> None:
         self.emit(
             "back_off",
             task,
             depth,
-            f"{task}: opening the hand and lifting it {height * 100:.0f} cm before trying again",
+            f"{task}: opening the hand and lifting it {height * 100:.0f} cm {why}",
             {"height": height},
         )
 

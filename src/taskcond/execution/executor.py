@@ -70,7 +70,15 @@ from taskcond.conditions import (
 from taskcond.dmp import DMPParameters, DMPRollout, rollout
 from taskcond.execution.collisions import CollisionMonitor
 from taskcond.execution.events import Event, EventLog, fmt_items, fmt_vector
-from taskcond.execution.skills import Segment, Skill, SkillError, SkillLibrary, target_object, turned
+from taskcond.execution.skills import (
+    HALF_TURN,
+    Segment,
+    Skill,
+    SkillError,
+    SkillLibrary,
+    target_object,
+    turned,
+)
 from taskcond.execution.world import Observation, Touch, World
 from taskcond.primitives import TaskNameError, parse_task, task_for_condition
 
@@ -299,16 +307,18 @@ class Executor:
             obs = self.world.observe()
             if attempt == 0 and _done_already(task, cond, obs):
                 self.log.skip(task, depth)
+                if _still_touched(task, obs):
+                    self._back_off(task, depth, "to let go of it")
                 return
             if attempt > 0 and (undo := _undoing(cond, obs)):
                 self.log.not_retried(task, depth, undo, missing, attempt)
                 return
             if attempt > 0 and parse_task(task).primitive.id == "grasp":
-                self._back_off(task, depth)
+                self._back_off(task, depth, "before trying again")
             self.satisfy(_part_way(cond, obs), (*stack, task), depth, deadline)
             if depth > 0 and parse_task(task).primitive.id == "release":
                 self._set_down(task, depth)
-            self.control(task, cond, depth, deadline)
+            self.control(task, cond, depth, deadline, retry=attempt > 0)
             missing = _missing(cond.post_conditions, self.world.observe())
             if _achieved(cond, missing):
                 self.log.post(task, depth, missing)
@@ -348,14 +358,15 @@ class Executor:
         if still:
             raise ExecutionError(f"could not satisfy {fmt_items(still)} for {stack[-1]!r}", "unsatisfiable")
 
-    def _back_off(self, task: str, depth: int) -> None:
-        """Beyond the paper: before a grasp is tried again, open the hand and lift it straight up by
-        :data:`BACK_OFF_HEIGHT` (or to the height of the highest demonstrated start, if that is lower),
-        so that the object the missed grasp disturbed settles and the next try starts above it, not
-        beside it in whatever pose the miss left the hand (a retry from there brushes the object over)."""
+    def _back_off(self, task: str, depth: int, why: str) -> None:
+        """Beyond the paper: open the hand and lift it straight up by :data:`BACK_OFF_HEIGHT`. Before a
+        grasp is tried again, so that the object the missed grasp disturbed settles and the next try
+        starts above it, not beside it in whatever pose the miss left the hand (a retry from there
+        brushes the object over); and when a release is skipped because its object is no longer grasped
+        but a finger still touches it (it slipped), so that the hand lets go of it."""
         here, quat = self.world.ee_pose()
         opened = 0.0
-        self.log.back_off(task, depth, BACK_OFF_HEIGHT)
+        self.log.back_off(task, depth, BACK_OFF_HEIGHT, why)
         for _ in range(BACK_OFF_RELEASE):
             self._step(here, quat, opened)
         goal = here + np.array([0.0, 0.0, BACK_OFF_HEIGHT])
@@ -414,26 +425,29 @@ class Executor:
         return new
 
     # ----------------------------------------------------------------------------------------- Alg. 2
-    def control(self, task: str, cond: TaskCondition | None, depth: int, deadline: float) -> None:
+    def control(
+        self, task: str, cond: TaskCondition | None, depth: int, deadline: float, retry: bool = False
+    ) -> None:
         """Alg. 2 (ControlWithCond): the allowed collisions of ``cond`` (line 2, a
         :class:`~taskcond.execution.collisions.CollisionMonitor`), the goal from the environment
         information (lines 3–4, :meth:`_aim`), then each DMP piece of the skill in turn (lines 5–15,
         :meth:`_follow`); the last command is held :attr:`ExecutionConfig.settle_steps` steps. Without a
-        condition (method ``none``) the pieces just run."""
+        condition (method ``none``) the pieces just run. ``retry``: the primitive was tried before (see
+        :meth:`_aim`)."""
         obs = self.world.observe()
-        aim = self._aim(task, obs)
+        aim = self._aim(task, obs, retry)
         monitor = None if cond is None else CollisionMonitor.start(cond, obs, self.world.arms[: aim.arms])
         self.log.primitive(
             task, depth, aim.skill, aim.target_name, aim.target, aim.turn, aim.aside, aim.approach
         )
         if aim.approach is not None:
             first = aim.skill.segments[0]
-            self._transit(
-                aim.approach,
-                first.orientation(1.0, self.world.ee_pose()[1], aim.turn),
-                first.gripper,
-                aim.over,
-            )
+            here_q = self.world.ee_pose()[1]
+            if parse_task(task).primitive.id == "grasp":  # the hand pointing down as it will grasp
+                orientation = first.orientation(1.0, here_q, aim.turn)
+            else:  # as the demonstration started: an open's hand turns to the handle on the way
+                orientation = _nearest_twin(first.orientations[0, :4], here_q)
+            self._transit(aim.approach, orientation, first.gripper, aim.over)
         adjustments = 0
         for seg in aim.skill.segments:
             if self.world.time > deadline:
@@ -444,7 +458,7 @@ class Executor:
         for _ in range(self.config.settle_steps):
             self._step(*self._last)
 
-    def _aim(self, task: str, obs: Observation) -> Aim:
+    def _aim(self, task: str, obs: Observation, retry: bool = False) -> Aim:
         """Alg. 2 lines 3–4: the target's perceived centre in ``obs`` (targetPos, the goalPos of a primitive
         with a target) and the skill for the end effector's pose relative to it.
 
@@ -452,7 +466,8 @@ class Executor:
         object, and re-grasps that cannot hold it would only spend the budget. A grasp of a round object
         whose demonstrated approach would bring the hand against a neighbour comes from another side
         (:meth:`_turn`). A grasp whose hand is far from every demonstrated start goes to the highest one
-        first (:meth:`_far`, :meth:`_transit`).
+        first (:meth:`_far`, :meth:`_transit`), unless it is a grasp tried again (``retry``): the missed
+        try came from there, and the retry starts above the object where :meth:`_back_off` left the hand.
 
         Raises:
             ExecutionError: the target is not perceived or lies on its side (a grasp), no skill fits, or
@@ -485,6 +500,7 @@ class Executor:
         carry = parsed.primitive.id in CARRIES and obs.grasped() == parsed.objects[0]
         far = (
             (parsed.primitive.id in APPROACHED or carry)
+            and not (retry and grasp)
             and target is not None
             and self._far(task, skill, here - target)
         )
@@ -874,6 +890,17 @@ def _done_already(task: str, cond: TaskCondition, obs: Observation) -> bool:
     return bool(idempotent and cond.post_conditions and not _missing(cond.post_conditions, obs))
 
 
+def _still_touched(task: str, obs: Observation) -> bool:
+    """``task`` is a release whose object a gripper still touches in ``obs`` (not grasping it by the
+    perceiver's rule, both fingers, but the hand has not let go: the judge's ``not grasping`` is no
+    finger on it)."""
+    parsed = parse_task(task)
+    if parsed.primitive.id != "release":
+        return False
+    held = parsed.objects[0]
+    return any(held in (t.a, t.b) and (is_gripper(t.a) or is_gripper(t.b)) for t in obs.touches)
+
+
 def _achieved(cond: TaskCondition, missing: Sequence[Predicate]) -> bool:
     """With the post-conditions ``missing`` after an execution, ``cond``'s primitive counts as done (module
     doc, step 3): none of its effects (post-conditions that are not pre-conditions, nor relations of the
@@ -962,6 +989,15 @@ def _carry_height(
         if name not in (held, *arms) and near.any() and not under:
             tops.append(float(hi[2]))
     return max(tops, default=0.0) + float(here[2] - lower[2]) + CARRY_MARGIN
+
+
+def _nearest_twin(orientation: np.ndarray, here: np.ndarray) -> np.ndarray:
+    """``orientation`` (4,) xyzw or its half-turned twin about the hand's own axis, whichever is nearer to
+    ``here`` (4,): a parallel gripper holds the same either way (:data:`HALF_TURN`)."""
+    target = Rotation.from_quat(orientation)
+    now = Rotation.from_quat(here)
+    twin = target * HALF_TURN
+    return (twin if (now.inv() * twin).magnitude() < (now.inv() * target).magnitude() else target).as_quat()
 
 
 def _support_below(obj: str, obs: Observation, arms: Sequence[str]) -> float | None:
