@@ -466,8 +466,9 @@ class Executor:
         object, and re-grasps that cannot hold it would only spend the budget. A grasp of a round object
         whose demonstrated approach would bring the hand against a neighbour comes from another side
         (:meth:`_turn`). A grasp whose hand is far from every demonstrated start goes to the highest one
-        first (:meth:`_far`, :meth:`_transit`), unless it is a grasp tried again (``retry``): the missed
-        try came from there, and the retry starts above the object where :meth:`_back_off` left the hand.
+        first (:meth:`_far`, :meth:`_transit`), and so does an open or close, unless the primitive is
+        tried again (``retry``): the failed try came from there (a retried grasp starts above the object,
+        where :meth:`_back_off` left the hand; a retried open goes on from the lid where the hand is).
 
         Raises:
             ExecutionError: the target is not perceived or lies on its side (a grasp), no skill fits, or
@@ -499,8 +500,7 @@ class Executor:
         parsed = parse_task(task)
         carry = parsed.primitive.id in CARRIES and obs.grasped() == parsed.objects[0]
         far = (
-            (parsed.primitive.id in APPROACHED or carry)
-            and not (retry and grasp)
+            ((parsed.primitive.id in APPROACHED and not retry) or carry)
             and target is not None
             and self._far(task, skill, here - target)
         )
