@@ -369,10 +369,7 @@ class Executor:
         self.log.back_off(task, depth, BACK_OFF_HEIGHT, why)
         for _ in range(BACK_OFF_RELEASE):
             self._step(here, quat, opened)
-        goal = here + np.array([0.0, 0.0, BACK_OFF_HEIGHT])
-        steps = max(1, math.ceil(BACK_OFF_HEIGHT / (self.config.speed_limit * self.world.dt)))
-        for k in range(1, steps + 1):
-            self._step(here + (goal - here) * (k / steps), quat, opened)
+        self._straight(here + np.array([0.0, 0.0, BACK_OFF_HEIGHT]), quat, opened)
 
     def _set_down(self, task: str, depth: int) -> None:
         """Beyond the paper: before a release that Alg. 1 raised to free the hand (another primitive needs
@@ -392,13 +389,30 @@ class Executor:
         here, quat = self.world.ee_pose()
         gripper = self._last[2] if hasattr(self, "_last") else 1.0
         self.log.set_down(task, depth, held, drop)
-        goal = here - np.array([0.0, 0.0, drop])
-        steps = max(1, math.ceil(drop / (self.config.speed_limit * self.world.dt)))
-        for k in range(1, steps + 1):
-            self._step(here + (goal - here) * (k / steps), quat, gripper)
-            if any(
+
+        def landed() -> bool:
+            return any(
                 held in (t.a, t.b) and {t.a, t.b}.isdisjoint(self.world.arms) for t in self.world.touches()
-            ):
+            )
+
+        self._straight(here - np.array([0.0, 0.0, drop]), quat, gripper, landed)
+
+    def _straight(
+        self,
+        goal: np.ndarray,
+        orientation: np.ndarray,
+        gripper: float,
+        stop: Callable[[], bool] | None = None,
+    ) -> None:
+        """Move the hand in a straight line from where it is to ``goal`` (3,) m at
+        :attr:`ExecutionConfig.speed_limit`, holding ``orientation`` (4,) xyzw and the ``gripper`` command,
+        until ``stop()`` says so after a step."""
+        here, _ = self.world.ee_pose()
+        distance = float(np.linalg.norm(goal - here))
+        steps = max(1, math.ceil(distance / (self.config.speed_limit * self.world.dt)))
+        for k in range(1, steps + 1):
+            self._step(here + (goal - here) * (k / steps), orientation, gripper)
+            if stop is not None and stop():
                 break
 
     def _cond2task(self, pre: Predicate, obs: Observation, stack: tuple[str, ...], depth: int) -> str:
