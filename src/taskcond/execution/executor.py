@@ -71,13 +71,13 @@ from taskcond.dmp import DMPParameters, DMPRollout, rollout
 from taskcond.execution.collisions import CollisionMonitor
 from taskcond.execution.events import Event, EventLog, fmt_items, fmt_vector
 from taskcond.execution.skills import (
-    HALF_TURN,
     Segment,
     Skill,
     SkillError,
     SkillLibrary,
     target_object,
     turned,
+    twin_turn,
 )
 from taskcond.execution.world import Observation, Touch, World
 from taskcond.primitives import TaskNameError, parse_task, task_for_condition
@@ -302,6 +302,7 @@ class Executor:
             deadline: world time, s, at which the top-level primitive's budget ends.
         """
         cond = self.condition(task, depth)
+        primitive = parse_task(task).primitive.id
         missing: list[Predicate] = []
         for attempt in range(self.config.max_attempts):
             obs = self.world.observe()
@@ -313,10 +314,10 @@ class Executor:
             if attempt > 0 and (undo := _undoing(cond, obs)):
                 self.log.not_retried(task, depth, undo, missing, attempt)
                 return
-            if attempt > 0 and parse_task(task).primitive.id == "grasp":
+            if attempt > 0 and primitive == "grasp":
                 self._back_off(task, depth, "before trying again")
             self.satisfy(_part_way(cond, obs), (*stack, task), depth, deadline)
-            if depth > 0 and parse_task(task).primitive.id == "release":
+            if depth > 0 and primitive == "release":
                 self._set_down(task, depth)
             self.control(task, cond, depth, deadline, retry=attempt > 0)
             missing = _missing(cond.post_conditions, self.world.observe())
@@ -407,13 +408,16 @@ class Executor:
         """Move the hand in a straight line from where it is to ``goal`` (3,) m at
         :attr:`ExecutionConfig.speed_limit`, holding ``orientation`` (4,) xyzw and the ``gripper`` command,
         until ``stop()`` says so after a step."""
-        here, _ = self.world.ee_pose()
-        distance = float(np.linalg.norm(goal - here))
-        steps = max(1, math.ceil(distance / (self.config.speed_limit * self.world.dt)))
-        for k in range(1, steps + 1):
-            self._step(here + (goal - here) * (k / steps), orientation, gripper)
+        for point in self._line(self.world.ee_pose()[0], goal):
+            self._step(point, orientation, gripper)
             if stop is not None and stop():
                 break
+
+    def _line(self, start: np.ndarray, goal: np.ndarray) -> list[np.ndarray]:
+        """Positions (3,) m, one per control step, from ``start`` (exclusive) to ``goal`` (inclusive) in a
+        straight line at :attr:`ExecutionConfig.speed_limit`."""
+        n = max(1, math.ceil(float(np.linalg.norm(goal - start)) / (self.config.speed_limit * self.world.dt)))
+        return [start + (goal - start) * (k / n) for k in range(1, n + 1)]
 
     def _cond2task(self, pre: Predicate, obs: Observation, stack: tuple[str, ...], depth: int) -> str:
         """Alg. 1 line 6 (Cond2Task, :func:`taskcond.primitives.task_for_condition`): the primitive task
@@ -460,7 +464,8 @@ class Executor:
             if parse_task(task).primitive.id == "grasp":  # the hand pointing down as it will grasp
                 orientation = first.orientation(1.0, here_q, aim.turn)
             else:  # as the demonstration started: an open's hand turns to the handle on the way
-                orientation = _nearest_twin(first.orientations[0, :4], here_q)
+                start = Rotation.from_quat(first.orientations[0, :4])
+                orientation = (start * twin_turn(start, Rotation.from_quat(here_q))).as_quat()
             self._transit(aim.approach, orientation, first.gripper, aim.over)
         adjustments = 0
         for seg in aim.skill.segments:
@@ -494,7 +499,8 @@ class Executor:
             raise ExecutionError(
                 f"{target_name!r} is not perceived; cannot aim {task!r} at it", "not_perceived"
             )
-        grasp = parse_task(task).primitive.id == "grasp"
+        parsed = parse_task(task)
+        grasp = parsed.primitive.id == "grasp"
         if grasp and target_name in obs.lying:
             raise ExecutionError(
                 f"{target_name!r} fell over; no grasp skill holds it lying (each is demonstrated upright)",
@@ -511,7 +517,6 @@ class Executor:
                 f"{len(self.world.arms)}",
                 "no_skill",
             )
-        parsed = parse_task(task)
         carry = parsed.primitive.id in CARRIES and obs.grasped() == parsed.objects[0]
         far = (
             ((parsed.primitive.id in APPROACHED and not retry) or carry)
@@ -524,7 +529,7 @@ class Executor:
         if grasp and target is not None and target_name in obs.round and skill.segments[0].anchor == "target":
             turn = self._turn(skill, target_name, target, obs, far)
         aside = np.zeros(3)
-        if parse_task(task).primitive.id == "move_on_top" and target is not None and target_name is not None:
+        if parsed.primitive.id == "move_on_top" and target is not None and target_name is not None:
             aside = self._aside(skill, target_name, target, obs)
         approach = target + aside + turned(skill.start_offset, turn) if far and target is not None else None
         over = None
@@ -573,11 +578,9 @@ class Executor:
         the higher of the two heights (and of ``over``, m), across, and down, at
         :attr:`ExecutionConfig.speed_limit`."""
         top = max(float(start[2]), float(goal[2]), -math.inf if over is None else over)
-        step = self.config.speed_limit * self.world.dt
         points, here = [np.asarray(start, float)], np.asarray(start, float)
         for waypoint in (np.array([*start[:2], top]), np.array([*goal[:2], top]), np.asarray(goal, float)):
-            n = max(1, math.ceil(float(np.linalg.norm(waypoint - here)) / step))
-            points += [here + (waypoint - here) * (k / n) for k in range(1, n + 1)]
+            points += self._line(here, waypoint)
             here = waypoint
         return np.array(points)
 
@@ -1003,15 +1006,6 @@ def _carry_height(
         if name not in (held, *arms) and near.any() and not under:
             tops.append(float(hi[2]))
     return max(tops, default=0.0) + float(here[2] - lower[2]) + CARRY_MARGIN
-
-
-def _nearest_twin(orientation: np.ndarray, here: np.ndarray) -> np.ndarray:
-    """``orientation`` (4,) xyzw or its half-turned twin about the hand's own axis, whichever is nearer to
-    ``here`` (4,): a parallel gripper holds the same either way (:data:`HALF_TURN`)."""
-    target = Rotation.from_quat(orientation)
-    now = Rotation.from_quat(here)
-    twin = target * HALF_TURN
-    return (twin if (now.inv() * twin).magnitude() < (now.inv() * target).magnitude() else target).as_quat()
 
 
 def _support_below(obj: str, obs: Observation, arms: Sequence[str]) -> float | None:

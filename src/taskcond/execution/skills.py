@@ -164,11 +164,7 @@ class Segment:
         for arm, profile in enumerate(self._profiles):
             here = Rotation.from_quat(start[4 * arm : 4 * arm + 4])
             first = spin * Rotation.from_quat(self.orientations[0, 4 * arm : 4 * arm + 4])
-            twin = (
-                HALF_TURN
-                if (here.inv() * first * HALF_TURN).magnitude() < (here.inv() * first).magnitude()
-                else Rotation.identity()
-            )
+            twin = twin_turn(first, here)
             offset = (here * (first * twin).inv()).as_rotvec()
             arms.append(
                 (Rotation.from_rotvec(weight[:, None] * offset[None, :]) * spin * profile(u) * twin).as_quat()
@@ -188,6 +184,15 @@ def turned(vectors: np.ndarray, turn: float) -> np.ndarray:
 
 HALF_TURN = Rotation.from_rotvec([0.0, 0.0, np.pi])
 """Half a turn about the gripper's own z axis (its approach axis): a parallel gripper's twin pose."""
+
+
+def twin_turn(orientation: Rotation, here: Rotation) -> Rotation:
+    """:data:`HALF_TURN` if ``orientation`` turned half a turn about the hand's own axis is nearer to
+    ``here`` than ``orientation`` itself, else the identity: a parallel gripper holds the same either way,
+    so the nearer of the two twins is taken."""
+    if (here.inv() * orientation * HALF_TURN).magnitude() < (here.inv() * orientation).magnitude():
+        return HALF_TURN
+    return Rotation.identity()
 
 
 @dataclass(frozen=True, eq=False)
