@@ -537,14 +537,12 @@ def condition_trial_runner(
     from taskcond.execution.sources import demonstration_evidence
     from taskcond.primitives import parse_task
 
-    made: dict[str, Any] = {}
+    generator, library = cache(generator_factory), cache(library_factory)  # built on first use
 
     def run(trial: Job) -> dict[str, Any]:
         index = trial.seed - table_specs()["table2"].seed
         if trial.method == "env":
-            if "library" not in made:
-                made["library"] = library_factory()
-            skills = fromenv_skills(made["library"], trial.task)
+            skills = fromenv_skills(library(), trial.task)
             if index >= len(skills):
                 return {**trial.to_dict(), "skipped": True}
             skill = skills[index]
@@ -556,20 +554,15 @@ def condition_trial_runner(
                 "correct": cond is not None and covers(cond, ref),
                 "exact": cond is not None and cond.matches(ref),
             }
-        if "generator" not in made:
-            made["generator"] = generator_factory()
         if trial.method != "generalization-grounded":
-            outcome = score_trial(made["generator"], trial.task, trial.method, index)
+            outcome = score_trial(generator(), trial.task, trial.method, index)
             return {**_scored(trial, outcome), "correct": outcome.correct, "answer": outcome.answer}
-        if "library" not in made:
-            made["library"] = library_factory()
-        library = made["library"]
         outcome = score_trial(
-            made["generator"],
+            generator(),
             trial.task,
             "generalization",
             index,
-            evidence=lambda task: demonstration_evidence(library, task.name),
+            evidence=lambda task: demonstration_evidence(library(), task.name),
         )
         return {
             **_scored(trial, outcome),
