@@ -9,6 +9,7 @@ from __future__ import annotations
 import contextlib
 import json
 import sys
+from collections.abc import Iterable
 from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 from typing import Annotated, NoReturn
@@ -19,6 +20,7 @@ from taskcond.conditions import ConditionError
 from taskcond.generator import PROMPT_VERSION
 from taskcond.llm.base import LLMError
 from taskcond.primitives import PRIMITIVES, TaskNameError, parse_task
+from taskcond.reproduce import CONDITION_COLUMNS, EXECUTION_COLUMNS
 
 app = typer.Typer(
     help="Long-horizon manipulation guided by LLM-generated task conditions (arXiv 2310.02264).",
@@ -363,7 +365,7 @@ def eval_conditions(
     generalization grounded in the demonstrations, and the model's zero-shot state probe."""
     from tqdm import tqdm
 
-    from taskcond.evaluation import EVAL_OBJECTS, evaluate_conditions
+    from taskcond.evaluation import evaluate_conditions
     from taskcond.primitives import get_primitive
     from taskcond.results import RunConfig, code_version, llm_fields
 
@@ -386,16 +388,11 @@ def eval_conditions(
             )
     evidence = None
     if grounded and "generalization" in modes:
-        from taskcond.execution.skills import SkillError
         from taskcond.execution.sources import demonstration_evidence
 
         _sim_import()
         library = _library(skills)
-        try:
-            for pid in pids:  # fail before the LLM runs when a primitive has no demonstration
-                demonstration_evidence(library, PRIMITIVES[pid].task_name(*EVAL_OBJECTS[pid][0]))
-        except SkillError as exc:
-            fail(str(exc))
+        _require_demonstrations(library, pids, "or leave the column out: --no-grounded")
 
         def evidence(task):
             return demonstration_evidence(library, task.name)
@@ -1234,6 +1231,20 @@ eval_app.command(
 )(_eval_command("long-horizon"))
 
 
+def _require_demonstrations(library, pids: Iterable[str], leave_out: str) -> None:
+    """Fail, before the LLM runs, when the library has no demonstration of one of the primitives ``pids``
+    whose generalization answers are to be grounded; ``leave_out`` says how to run without grounding."""
+    from taskcond.evaluation import EVAL_OBJECTS
+    from taskcond.execution.skills import SkillError
+    from taskcond.execution.sources import demonstration_evidence
+
+    try:
+        for pid in sorted(pids):
+            demonstration_evidence(library, PRIMITIVES[pid].task_name(*EVAL_OBJECTS[pid][0]))
+    except SkillError as exc:
+        fail(f"{exc}; the grounded column needs it ({leave_out})")
+
+
 def _reproduce_conditions(spec, trials, out: Path, llm: str | None, skills: Path | None):
     """Table II's trials into ``out`` (resuming it); returns the results and the configuration."""
     from tqdm import tqdm
@@ -1252,6 +1263,8 @@ def _reproduce_conditions(spec, trials, out: Path, llm: str | None, skills: Path
 
     library = _library(skills)
     library_dir = skills or default_library_dir()
+    grounded = {t.task for t in trials if t.method == "generalization-grounded"}
+    _require_demonstrations(library, grounded, "or leave it out with --column or --row")
     try:
         config = RunConfig(
             kind="conditions", **llm_fields(llm), skills=directory_digest(library_dir), code=code_version()
@@ -1310,9 +1323,11 @@ def reproduce(
         list[str] | None,
         typer.Option(
             "--column",
-            help="Only these columns (repeatable): generation-llm, generation-env, generalization-llm, "
-            "generalization-grounded "
-            "(Table II); none, env, llm (Tables III, IV). The others show as not run.",
+            help="Only these columns (repeatable): "
+            + ", ".join(c.key for c in CONDITION_COLUMNS)
+            + " (Table II); "
+            + ", ".join(c.key for c in EXECUTION_COLUMNS)
+            + " (Tables III, IV). The others show as not run.",
         ),
     ] = None,
     backend: BackendOption = "local",

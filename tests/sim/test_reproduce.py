@@ -124,6 +124,19 @@ def test_reproduce_table2_scores_the_demonstrations_conditions(library_dir, tmp_
     assert cells["generalization-env"]["status"] == "infeasible"
 
 
+def test_reproduce_table2_refuses_the_grounded_column_before_the_llm_without_a_demonstration(
+    library_dir, tmp_path
+):
+    """The library holds no fold demonstration: the grounded column is refused at once, in one line, and
+    nothing is asked or written."""
+    args = ["reproduce", "table2", "--row", "fold", "--column", "generalization-grounded", "--episodes", "1"]
+    res = runner.invoke(app, [*args, "--skills", str(library_dir), "--out", str(tmp_path)])
+    assert res.exit_code == 2
+    assert "fold" in res.output and "grounded column needs it" in res.output
+    assert len(res.output.strip().splitlines()) == 1
+    assert not (tmp_path / "table2.jsonl").exists()
+
+
 def test_reproduce_table2_grounds_the_generalization_answer_in_the_demonstration(library_dir, tmp_path):
     """Table II's grounded column: the leave-one-out answer (the embedded LLM), grounded in the grasp
     demonstration, matches the reference; its record lists the repairs and any extra relation."""
