@@ -73,6 +73,40 @@ def _common_prefix_length(a: Sequence[object], b: Sequence[object]) -> int:
     return n
 
 
+def amx_built_in(llama_cpp: Any) -> bool:
+    """Whether the installed llama.cpp was compiled with AMX matrix kernels (a native build on an Intel
+    CPU with AMX, e.g. Sapphire Rapids)."""
+    return b"AMX_INT8 = 1" in llama_cpp.llama_print_system_info()
+
+
+@contextlib.contextmanager
+def _without_amx(llama_cpp: Any):
+    """Load models without llama.cpp's extra weight buffers when its AMX kernels are built in.
+
+    llama.cpp repacks the weights into an AMX buffer on such a build, and the first evaluation then
+    crashes the process with a segmentation fault on some machines (this project's among them; upstream
+    ggml-org/llama.cpp#20824, open). ``use_extra_bufts = False`` keeps the weights in ordinary CPU buffers.
+    llama-cpp-python builds its model parameters inside ``Llama.__init__`` from
+    ``llama_model_default_params``, so that function is wrapped for the duration of the load. ``make
+    install`` builds llama.cpp without AMX in the first place (Makefile, ``NO_AMX``)."""
+    if not amx_built_in(llama_cpp):
+        yield
+        return
+    module = llama_cpp.llama_cpp
+    default = module.llama_model_default_params
+
+    def params():
+        p = default()
+        p.use_extra_bufts = False
+        return p
+
+    module.llama_model_default_params = params
+    try:
+        yield
+    finally:
+        module.llama_model_default_params = default
+
+
 class EmbeddedBackend:
     """llama.cpp in-process. ``model`` is a name of :data:`taskcond.llm.models.EMBEDDED_MODELS`.
 
@@ -125,18 +159,19 @@ class EmbeddedBackend:
             ) from None
         path = model_path(self.spec)
         start = time.perf_counter()
-        self._contexts = [
-            llama_cpp.Llama(
-                model_path=str(path),
-                n_ctx=self.n_ctx,
-                n_batch=BATCH,
-                n_threads=self.n_threads,
-                n_threads_batch=self.n_threads,
-                chat_format=self.spec.chat_format,
-                verbose=False,
-            )
-            for _ in range(CONTEXTS)
-        ]
+        with _without_amx(llama_cpp):
+            self._contexts = [
+                llama_cpp.Llama(
+                    model_path=str(path),
+                    n_ctx=self.n_ctx,
+                    n_batch=BATCH,
+                    n_threads=self.n_threads,
+                    n_threads_batch=self.n_threads,
+                    chat_format=self.spec.chat_format,
+                    verbose=False,
+                )
+                for _ in range(CONTEXTS)
+            ]
         self._last_prompt = [""] * CONTEXTS
         self._evaluated = [0] * CONTEXTS
         self._lru = list(range(CONTEXTS))
