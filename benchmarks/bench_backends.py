@@ -13,7 +13,15 @@ import argparse
 import time
 from pathlib import Path
 
-from taskcond.execution.runner import Job, default_library_dir, execution_config, load_library, run_jobs
+from taskcond.execution.runner import (
+    Job,
+    WorkerArgs,
+    default_library_dir,
+    execution_config,
+    llm_threads,
+    load_library,
+    run_jobs,
+)
 
 
 def timed(jobs: list[Job], backend: str, workers: int, library_dir: Path) -> tuple[list[dict], float, float]:
@@ -21,7 +29,8 @@ def timed(jobs: list[Job], backend: str, workers: int, library_dir: Path) -> tup
     start = time.perf_counter()
     first = None
     records = []
-    for rec in run_jobs(jobs, (str(library_dir), None, 0.005), workers, backend):
+    args = WorkerArgs(str(library_dir), None, 0.005, llm_threads=llm_threads(workers, backend))
+    for rec in run_jobs(jobs, args, workers, backend):
         first = first or time.perf_counter() - start
         records.append(rec)
     return records, time.perf_counter() - start, first or 0.0

@@ -610,7 +610,7 @@ class Executor:
         lo, hi = obs.boxes[carried]
         foot = (lo[:2] - here[:2] + end[:2], hi[:2] - here[:2] + end[:2])
         middle = (obs.centers.get(carried, (lo + hi) / 2)[:2] - here[:2]) + end[:2]
-        skip = (target_name, carried, "table", *self.world.arms)
+        skip = (target_name, carried, *self.world.ground, *self.world.arms)
         others = [(a[:2], b[:2]) for name, (a, b) in obs.boxes.items() if name not in skip]
         support_lo, support_hi = (b[:2] for b in obs.boxes[target_name])
         below = float(obs.boxes[target_name][1][2] - (end[2] - here[2] + lo[2]))
@@ -659,7 +659,9 @@ class Executor:
         they are to hold."""
         arms = self.world.arms
         others = [
-            (lo, hi) for name, (lo, hi) in obs.boxes.items() if name not in (target_name, "table", *arms)
+            (lo, hi)
+            for name, (lo, hi) in obs.boxes.items()
+            if name not in (target_name, *self.world.ground, *arms)
         ]
         opened = []
         for seg in skill.segments:

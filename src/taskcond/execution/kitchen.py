@@ -34,7 +34,7 @@ from taskcond.primitives import get_primitive, parse_task
 from taskcond.sim.assets import BottleSpec, VesselSpec
 from taskcond.sim.perception import EnvironmentInfo, Perception, PerceptionConfig
 from taskcond.sim.recording import VideoRecorder
-from taskcond.sim.scene import SceneConfig, dual_arm_config
+from taskcond.sim.scene import TABLE, SceneConfig, dual_arm_config
 from taskcond.tasks.base import PrimitiveTask, Task, TaskInfo
 from taskcond.tasks.close import DOOR_START
 from taskcond.tasks.groundtruth import GroundTruth
@@ -136,6 +136,10 @@ class KitchenWorld:
     def arms(self) -> tuple[str, ...]:
         return self._arms
 
+    @property
+    def ground(self) -> tuple[str, ...]:
+        return (TABLE,)
+
     def observe(self) -> Observation:
         """Environment information now; repeated calls without a control step in between return the same
         observation (same noise draw), as a real robot's perception would until something moves."""
@@ -216,13 +220,13 @@ class KitchenWorld:
 
     def sweep(self, positions: np.ndarray, orientations: np.ndarray, ignore: tuple[str, ...]) -> float:
         """The arm's IK for each pose in turn, each seeded by the last (the current joints first), checked
-        against the scene's collision shapes of the named bodies but ``ignore`` and the table
+        against the scene's collision shapes of the named bodies but ``ignore`` and the table (:attr:`ground`)
         (:meth:`Franka.clearance`)."""
         robot = self.env.robot
         bodies = [
             (b.body_id, b.link_index)
             for b in self.env.scene.description().bodies
-            if b.kind != "robot" and b.name not in (*ignore, "table")
+            if b.kind != "robot" and b.name not in (*ignore, *self.ground)
         ]
         seed = robot.joint_positions()
         qs = []
@@ -306,7 +310,7 @@ def random_start(env: KitchenEnv, rng: np.random.Generator, fixed: dict[str, flo
     """
     scene = env.scene
     fixed = fixed or {}
-    standing = [n for n in scene.bodies if n not in scene.free_objects and n not in ("table", "cloth")]
+    standing = [n for n in scene.bodies if n not in scene.free_objects and n not in (TABLE, "cloth")]
     boxes = []
     for fraction in (1.0, 0.0):  # what every container covers open (its drawer out, lid up) and closed
         for name in scene.joints:

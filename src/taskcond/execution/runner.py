@@ -167,9 +167,10 @@ def plan_run(spec: str, decomposer: Callable[[str, str], list[str]] | None = Non
 
 
 def llm_decomposer(
-    llm: str | None = None, announce: Callable[[str], None] | None = None
+    llm: str | None = None, announce: Callable[[str], None] | None = None, threads: int | None = None
 ) -> Callable[[str, str], list[str]]:
-    """The ``decomposer`` of :func:`plan_run` with the LLM of ``llm`` (the ``--llm`` spec; answers cached):
+    """The ``decomposer`` of :func:`plan_run` with the LLM of ``llm`` (the ``--llm`` spec; answers cached;
+    an embedded model on ``threads`` CPU threads, None: every core):
     an instruction that reads as one primitive task the scene cannot do is refused first
     (:func:`refused_task`); ``announce`` is told the scene before the LLM is asked.
 
@@ -187,7 +188,7 @@ def llm_decomposer(
         if announce is not None:
             announce(scene)
         if not backends:
-            backends.append(make_backend(LLMConfig.load(llm)))
+            backends.append(make_backend(replace(LLMConfig.load(llm), threads=threads)))
         return decompose(instruction, backends[0], objects, affords, aliases=ALIASES)
 
     return decomposer
@@ -483,11 +484,15 @@ def novel_primitive_source(source: ConditionSource, task_id: str, seed: int) -> 
 
 
 def make_source(
-    method: Method, library: SkillLibrary, llm: str | None = None, cache: bool = True
+    method: Method,
+    library: SkillLibrary,
+    llm: str | None = None,
+    cache: bool = True,
+    threads: int | None = None,
 ) -> ConditionSource | None:
     """The condition source of ``method``: None (DMP only), FromEnv, the LLM of ``llm`` (the ``--llm``
-    spec; default: $TASKCOND_LLM, the config file, else embedded), or that LLM grounded in the library's
-    demonstrations (``llm+demo``)."""
+    spec; default: $TASKCOND_LLM, the config file, else embedded; an embedded model on ``threads`` CPU
+    threads, None: every core), or that LLM grounded in the library's demonstrations (``llm+demo``)."""
     if method not in METHODS:
         raise ValueError(f"unknown method {method!r}; valid: {', '.join(METHODS)}")
     if method == "none":
@@ -497,7 +502,7 @@ def make_source(
     from taskcond.generator import ConditionGenerator
     from taskcond.llm.config import LLMConfig, make_backend
 
-    config = LLMConfig.load(llm)
+    config = replace(LLMConfig.load(llm), threads=threads)
     if not cache:
         config = replace(config, cache=False)
     generator = ConditionGenerator(make_backend(config))
@@ -563,37 +568,60 @@ def execution_config(
 _WORKER: dict[str, Any] = {}
 
 
-WorkerArgs = tuple[str, str | None, float, str, str, str | None, str | None, bool]
-"""What an evaluation's worker needs (:func:`_init_worker`): skill library directory, LLM spec, noise,
-planner, start, instructions file (None for suite tasks), the baseline's checkpoint directory (None when it
-does not run), novel-primitive mode."""
+@dataclass(frozen=True)
+class WorkerArgs:
+    """What an evaluation's worker needs (:func:`_init_worker`).
+
+    Attributes:
+        library_dir: the skill library.
+        llm: the ``--llm`` spec (None: the default).
+        noise: perception noise (m).
+        planner: ``conditions`` or ``none``.
+        start: ``task`` or ``random``.
+        instructions: the instructions file (None for suite tasks).
+        il_dir: the baseline's checkpoint directory (None when it does not run).
+        novel_primitive: each episode leaves one primitive out of the LLM's examples.
+        llm_threads: CPU threads of the worker's embedded LLM (None: every core; :func:`llm_threads`).
+    """
+
+    library_dir: str
+    llm: str | None
+    noise: float
+    planner: str = "conditions"
+    start: str = "task"
+    instructions: str | None = None
+    il_dir: str | None = None
+    novel_primitive: bool = False
+    llm_threads: int | None = None
 
 
-def _init_worker(
-    library_dir: str,
-    llm: str | None,
-    noise: float,
-    planner: str = "conditions",
-    start: str = "task",
-    instructions: str | None = None,
-    il_dir: str | None = None,
-    novel_primitive: bool = False,
-) -> None:
+def llm_threads(workers: int, backend: str = "local") -> int | None:
+    """CPU threads of each worker's embedded LLM: the cores shared out among ``workers`` local processes,
+    one for a Ray task (it holds one CPU), None (every core) for one process. llama.cpp's threads wait for
+    each other at every operation, so two processes that each use every core slow each other down."""
+    if backend == "ray":
+        return 1
+    return None if workers <= 1 else max(1, (os.cpu_count() or 1) // workers)
+
+
+def _init_worker(args: WorkerArgs) -> None:
     from taskcond.instructions import load_instructions
 
+    instructions = args.instructions
     _WORKER.clear()
     _WORKER.update(
-        args=(library_dir, llm, noise, planner, start, instructions, il_dir, novel_primitive),
-        library_dir=library_dir,
-        llm=llm,
-        noise=noise,
+        args=args,
+        library_dir=args.library_dir,
+        llm=args.llm,
+        llm_threads=args.llm_threads,
+        noise=args.noise,
         sources={},
-        planner=planner,
-        start=start,
+        planner=args.planner,
+        start=args.start,
         instructions={} if instructions is None else {i.id: i for i in load_instructions(Path(instructions))},
-        decomposer=llm_decomposer(llm),
-        il_dir=il_dir,
-        novel_primitive=novel_primitive,
+        decomposer=llm_decomposer(args.llm, threads=args.llm_threads),
+        il_dir=args.il_dir,
+        novel_primitive=args.novel_primitive,
     )
 
 
@@ -686,7 +714,7 @@ def _run_job(job: Job) -> dict[str, Any]:
             _WORKER["library"] = SkillLibrary.load(_WORKER["library_dir"])
         library: SkillLibrary = _WORKER["library"]
         if method not in sources:
-            sources[method] = make_source(method, library, _WORKER["llm"])
+            sources[method] = make_source(method, library, _WORKER["llm"], threads=_WORKER["llm_threads"])
         source, left_out = sources[method], None
         if _WORKER["novel_primitive"]:
             source, left_out = novel_primitive_source(source, job.task, job.seed)  # type: ignore[arg-type]
@@ -745,9 +773,9 @@ def unplanned(job: Job, instruction: Any, reason: str, planner: str, start: str)
 
 def run_job(job: Job, init_args: WorkerArgs) -> dict[str, Any]:
     """:func:`_run_job` in a process that keeps its skill library, condition sources and policy between
-    calls with the same ``init_args`` (:data:`WorkerArgs`): a Ray task's entry point."""
+    calls with the same ``init_args`` (:class:`WorkerArgs`): a Ray task's entry point."""
     if _WORKER.get("args") != init_args:
-        _init_worker(*init_args)
+        _init_worker(init_args)
     return _run_job(job)
 
 
@@ -773,12 +801,12 @@ def run_jobs(
 
         yield from run_on_ray(jobs, init_args, workers, ray_address)
     elif workers <= 1:
-        _init_worker(*init_args)
+        _init_worker(init_args)
         for job in jobs:
             yield _run_job(job)
     else:
         ctx = multiprocessing.get_context("spawn")
-        with ctx.Pool(workers, _init_worker, init_args) as pool:
+        with ctx.Pool(workers, _init_worker, (init_args,)) as pool:
             yield from pool.imap_unordered(_run_job, jobs)
 
 
@@ -807,7 +835,7 @@ def evaluate(
     wanted = {j.key for j in jobs}
     done = results.done(Job.key_of)
     todo = [j for j in jobs if j.key not in done]
-    args: WorkerArgs = (
+    args = WorkerArgs(
         str(library_dir),
         llm,
         noise,
@@ -816,6 +844,7 @@ def evaluate(
         None if instructions is None else str(instructions),
         None if il_dir is None else str(il_dir),
         novel_primitive,
+        llm_threads(workers, backend),
     )
     for rec in run_jobs(todo, args, workers, backend, ray_address):
         results.append(rec)

@@ -80,6 +80,12 @@ class World(Protocol):
         ...
 
     @property
+    def ground(self) -> tuple[str, ...]:
+        """Names of what everything stands on (the table): under every footprint, never an obstacle beside
+        one."""
+        ...
+
+    @property
     def time(self) -> float:
         """Simulated (or wall) seconds since the episode began."""
         ...
@@ -113,8 +119,8 @@ class World(Protocol):
 
     def sweep(self, positions: np.ndarray, orientations: np.ndarray, ignore: tuple[str, ...]) -> float:
         """Least distance (m, negative for penetration, at most 0.05) between the first arm and every
-        object but ``ignore`` and the table, were its end effector to pass through ``positions`` (m, 3)
-        with ``orientations`` (m, 4) xyzw; nothing moves."""
+        object but ``ignore`` and the :attr:`ground`, were its end effector to pass through ``positions``
+        (m, 3) with ``orientations`` (m, 4) xyzw; nothing moves."""
         ...
 
     def ee_pose(self, arms: int = 1) -> tuple[np.ndarray, np.ndarray]:

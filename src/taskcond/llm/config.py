@@ -43,6 +43,8 @@ class LLMConfig:
     grammar_field: str | None = None
     cache: bool = True
     cache_dir: Path | None = None
+    threads: int | None = None
+    """CPU threads of the embedded model (None: every core)."""
 
     @classmethod
     def load(cls, spec: str | None = None, config_file: Path | None = None) -> LLMConfig:
@@ -95,7 +97,9 @@ def make_backend(config: LLMConfig) -> ChatBackend:
         from taskcond.llm.embedded import EmbeddedBackend
 
         prefixes = (config.cache_dir or cache_dir()) / "prefixes" if config.cache else None
-        backend = EmbeddedBackend(config.model or DEFAULT_EMBEDDED_MODEL, prefix_dir=prefixes)
+        backend = EmbeddedBackend(
+            config.model or DEFAULT_EMBEDDED_MODEL, n_threads=config.threads, prefix_dir=prefixes
+        )
     else:
         from taskcond.llm.openai_backend import OpenAIBackend
 

@@ -45,6 +45,8 @@ FramePose = tuple[tuple[float, float, float], tuple[float, float, float, float]]
 """A pose as PyBullet returns it: position (m) and quaternion (xyzw)."""
 _POSITION = itemgetter(0)
 """Item 0 of a ``p.getJointStates`` entry: the joint position (m or rad)."""
+TABLE = "table"
+"""The body everything else stands on."""
 
 
 @dataclass(frozen=True)
@@ -200,7 +202,7 @@ class KitchenScene:
         self.joints: dict[str, ContainerJoint] = {}
         self.specs: dict[str, AssetSpec] = {}
 
-        self._load("table", cfg.table, (*cfg.table.center, 0.0), fixed=True)
+        self._load(TABLE, cfg.table, (*cfg.table.center, 0.0), fixed=True)
         self._load("cabinet", cfg.cabinet, (*cfg.cabinet_origin, 0.0), fixed=True)
         self._load("box", cfg.box, (*cfg.box_origin, 0.0), fixed=True)
         self._load("microwave", cfg.microwave, (*cfg.microwave_origin, 0.0), fixed=True)
@@ -348,7 +350,7 @@ class KitchenScene:
     def description(self) -> SceneDescription:
         """The :class:`SceneDescription` read by the environment-information layer (§III-A.2)."""
         kinds = {
-            "table": "furniture",
+            TABLE: "furniture",
             "cabinet": "furniture",
             "box": "container",
             "microwave": "container",
