@@ -22,6 +22,7 @@ def main() -> int:
     args = ap.parse_args()
     runs = [
         ["bench_llm.py"],
+        ["bench_llm_workers.py"],
         ["probe_llm.py"],
         ["bench_dmp.py"],
         ["bench_kinova.py"] + (["--targets", "50"] if args.quick else []),

@@ -25,6 +25,12 @@ CONDITIONS = {
             ["gripper grasping bottle", "bottle inside box", "gripper above box"],
         ),
         _cond("grasp mug", ["gripper not grasping"], ["gripper grasping mug"]),
+        _cond("tilt bottle", ["gripper grasping bottle"], ["gripper grasping bottle"]),
+        _cond(
+            "move bottle in front of microwave",
+            ["gripper grasping bottle"],
+            ["gripper grasping bottle", "bottle in front of microwave"],
+        ),
         _cond("release mug", ["gripper grasping mug"], ["gripper not grasping"]),
         _cond(
             "move mug on top of table", ["gripper grasping mug"], ["gripper grasping mug", "mug above table"]
@@ -143,12 +149,18 @@ def test_frame_rule_keeps_what_no_post_condition_contradicts() -> None:
     assert parse_predicate("bowl above table") in moved
 
 
-def test_goal_composes_effects_and_keeps_the_gripper_only_from_a_final_grasp_or_release() -> None:
+def test_goal_composes_effects_and_keeps_the_gripper_from_a_final_grasp_or_release_or_when_alone() -> None:
     repaired = ("open box", "grasp bowl", "move bowl into box", "release bowl", "close box")
     assert [str(p) for p in goal_of(repaired, conditions)] == ["bowl inside box", "box closed"]
     put = ("grasp bottle", "move bottle into box", "release bottle")
     assert [str(p) for p in goal_of(put, conditions)] == ["bottle inside box", "gripper not grasping"]
     assert [str(p) for p in goal_of(("grasp bottle",))] == ["gripper grasping bottle"]
+    # a final tilt states nothing but the hand: the bottle still held is the goal, not nothing
+    assert [str(p) for p in goal_of(("grasp bottle", "tilt bottle"), conditions)] == [
+        "gripper grasping bottle"
+    ]
+    moved = ("grasp bottle", "move bottle in front of microwave")
+    assert [str(p) for p in goal_of(moved, conditions)] == ["bottle in front of microwave"]
     below = {"move bottle on top of box": _cond("move bottle on top of box", [], ["box below bottle"])}
     assert [str(p) for p in goal_of(["move bottle on top of box"], below.get)] == ["bottle above box"]
 

@@ -35,7 +35,9 @@ state is a set of :data:`~taskcond.conditions.Predicate`, what the scene affords
 :func:`goal_of` composes the effects of a plan into goal predicates: each step's post-conditions that
 Cond2Task maps back to that step (its own effect, in the condition vocabulary), later steps replacing
 earlier ones on the same subject, and the gripper's state only from the last step when that step is a
-grasp or a release (the instruction then says what the hand holds at the end).
+grasp or a release (the instruction then says what the hand holds at the end), or, when nothing else would
+be checked, as the plan leaves it (grasp and tilt: the vocabulary cannot state the tilt's angle, so the
+object still held is what there is to check).
 """
 
 from __future__ import annotations
@@ -436,8 +438,10 @@ def _join(preds: Sequence[Predicate]) -> str:
 def goal_of(steps: Sequence[str], conditions: Conditions | None = None) -> tuple[Predicate, ...]:
     """The goal predicates of a plan (module doc): the composed :func:`effects` of its steps, a later
     step's effect replacing an earlier one about the same gripper, container or object's place; the
-    gripper's state only from a final grasp or release. In first-achieved order."""
+    gripper's state only from a final grasp or release, or as the plan leaves it when the goal would be
+    empty without it. In first-achieved order."""
     goal: dict[tuple[str, str], Predicate] = {}
+    hand: dict[tuple[str, str], Predicate] = {}  # each gripper's state after the last step that set it
     for k, task in enumerate(steps):
         cond = conditions(task) if conditions is not None else None
         last = k == len(steps) - 1
@@ -446,9 +450,11 @@ def goal_of(steps: Sequence[str], conditions: Conditions | None = None) -> tuple
             own.setdefault(_slot(pred), pred)
         for slot, pred in own.items():
             goal.pop(slot, None)
+            if slot[0] == "gripper":
+                hand[slot] = pred
             if slot[0] != "gripper" or (last and parse_task(task).primitive.id in ("grasp", "release")):
                 goal[slot] = pred
-    return tuple(goal.values())
+    return tuple(goal.values()) or tuple(hand.values())
 
 
 __all__ = [
