@@ -110,8 +110,11 @@ def test_the_generators_own_settings_are_recorded() -> None:
 def test_the_novel_primitive_block_counts_its_own_episodes_and_names_what_was_left_out() -> None:
     spec = table_specs()["table4"]
     novel = trials_for(spec, 2, novel_primitive=True)
-    assert sorted({(t.task, t.method) for t in novel}) == [(f"LHT{k}", "llm") for k in range(1, 5)]
-    assert len(novel) == 8 and len(trials_for(spec, 2)) == 4 * 4 * 2 + 2 * 2  # the others: another file
+    methods = ("llm", "llm+demo")  # the LLM's conditions, and the same grounded in the demonstrations
+    assert sorted({(t.task, t.method) for t in novel}) == [
+        (f"LHT{k}", m) for k in range(1, 5) for m in methods
+    ]
+    assert len(novel) == 16 and len(trials_for(spec, 2)) == 4 * 4 * 2 + 2 * 2  # the others: another file
     records = [
         {"task": "LHT1", "method": "llm", "seed": 1000, "success": True},  # the "same" block's episode
         {"task": "LHT1", "method": "llm", "seed": 1000, "success": False, "failure": "condition"}
@@ -127,3 +130,5 @@ def test_the_novel_primitive_block_counts_its_own_episodes_and_names_what_was_le
 
     md = table_markdown(spec, cells, "")
     assert "LHT1, w/ cond from LLM, failures: 1 × condition, left out: close" in md
+    grounded = cells[("same", "LHT1", "llm+demo")]  # beyond the paper: only where a primitive is generalized
+    assert grounded.status == "not run" and "novel-primitive block" in grounded.note

@@ -20,7 +20,7 @@ from taskcond.conditions import ConditionError
 from taskcond.generator import PROMPT_VERSION
 from taskcond.llm.base import LLMError
 from taskcond.primitives import PRIMITIVES, TaskNameError, parse_task
-from taskcond.reproduce import CONDITION_COLUMNS, EXECUTION_COLUMNS
+from taskcond.reproduce import CONDITION_COLUMNS, EXECUTION_COLUMNS, GROUNDED_COLUMN
 
 app = typer.Typer(
     help="Long-horizon manipulation guided by LLM-generated task conditions (arXiv 2310.02264).",
@@ -1327,7 +1327,7 @@ def reproduce(
             + ", ".join(c.key for c in CONDITION_COLUMNS)
             + " (Table II); "
             + ", ".join(c.key for c in EXECUTION_COLUMNS)
-            + " (Tables III, IV). The others show as not run.",
+            + f" (Tables III, IV); {GROUNDED_COLUMN.key} (Table IV). The others show as not run.",
         ),
     ] = None,
     backend: BackendOption = "local",
