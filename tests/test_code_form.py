@@ -93,7 +93,7 @@ def test_malformed_code_answers_are_refused_in_one_line(answer, message):
 
 
 def test_v6_asks_a_left_out_primitive_in_one_code_chat_and_generation_as_v5():
-    assert PROMPT_VERSION == "v6" and uses_code_form("v6") and not uses_code_form("v5")
+    assert uses_code_form("v6") and not uses_code_form("v5")
     v6, v5 = ConditionGenerator(Replay([]), prompt_version="v6"), ConditionGenerator(Replay([]))
     v5.prompt_version = "v5"
     messages = v6.messages("code", TASK, exclude=["move_into"], order_seed=1)
@@ -108,10 +108,9 @@ def test_v6_asks_a_left_out_primitive_in_one_code_chat_and_generation_as_v5():
         assert load_prompt("retry", "v6").template == load_prompt("retry", "v5").template
 
 
-def test_v7_differs_from_v6_in_the_code_chats_system_message_only():
-    v7, v6 = ConditionGenerator(Replay([]), prompt_version="v7"), ConditionGenerator(Replay([]))
-    v6.prompt_version = "v6"
-    assert uses_code_form("v7")
+def test_v7_the_default_differs_from_v6_in_the_code_chats_system_message_only():
+    v7, v6 = ConditionGenerator(Replay([])), ConditionGenerator(Replay([]), prompt_version="v6")
+    assert PROMPT_VERSION == "v7" and uses_code_form("v7")
     seven = v7.messages("code", TASK, exclude=["move_into"], order_seed=1)
     six = v6.messages("code", TASK, exclude=["move_into"], order_seed=1)
     assert seven[1:] == six[1:] and seven[0] != six[0]

@@ -48,7 +48,7 @@ SamplesOption = Annotated[
     typer.Option(
         "--samples",
         min=1,
-        help="Self-consistency, majority per condition: for a left-out primitive in the code form (v6), "
+        help="Self-consistency, majority per condition: for a left-out primitive in the code form (v6, v7), "
         "greedy answers over this many example orders; otherwise answers sampled per chat.",
     ),
 ]
@@ -63,9 +63,9 @@ PromptVersionOption = Annotated[
     str,
     typer.Option(
         "--prompt-version",
-        help="Prompt set: v6 (default: a left-out primitive's condition written as a Python function in "
-        "one chat; generation as v5), v7 (v6 whose code chat says a container's state is asserted only "
-        "when the task opens, closes or puts something inside it), v5 (generation with the examples as "
+        help="Prompt set: v7 (default: v6 whose code chat says a container's state is asserted only "
+        "when the task opens, closes or puts something inside it), v6 (a left-out primitive's condition "
+        "written as a Python function in one chat; generation as v5), v5 (generation with the examples as "
         "earlier turns of the chat; the "
         "paper's two chain-of-thought chats for a left-out primitive, as v4), v4 (v1 whose "
         "chain-of-thought prompt shows each example with a one-line worked reasoning), v1 (the paper's "

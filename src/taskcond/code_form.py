@@ -1,4 +1,4 @@
-"""Task conditions written as Python functions: the code form of prompt version v6 (beyond the paper).
+"""Task conditions written as Python functions: the code form of prompt versions v6 and v7 (beyond the paper).
 
 The coder model states a left-out primitive's condition (paper §III-C, generalization) more often right
 when the examples are code than when they are the Listing 1 text (BENCHMARKS.md, "Conditions written as

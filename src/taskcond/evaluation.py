@@ -2,7 +2,7 @@
 
 For every primitive and trial, one task with varied object names is generated twice: with every example
 shown (*generation*) and with the primitive's own examples left out (*generalization*: the code form in
-prompt version v6, the chain-of-thought chats in v1–v5). A condition counts as correct only if every
+prompt versions v6 and v7, the chain-of-thought chats in v1–v5). A condition counts as correct only if every
 field equals the reference condition (the primitive's example instantiated for the task's objects),
 order-insensitive. Trials also vary the order of the examples in the prompts, so repeated trials are not
 repeated prompts. The model's zero-shot state probe (:mod:`taskcond.probe`) can go with the result, to

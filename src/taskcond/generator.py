@@ -11,9 +11,11 @@ the two chain-of-thought chats of Listing 4; in v4 and v5 each example carries a
 reasoning (few-shot chain of thought, Wei et al. 2022), so the model reasons about the new primitive in
 the same way before it answers; a reason speaks of its own example only and leaves with it. In v5 and v6,
 generation shows the examples as the chat's earlier turns (the task name asked, its condition answered)
-with the question as the last turn. In v6 (the default, beyond the paper), a left-out primitive is asked in
-one chat whose examples are Python functions (:mod:`taskcond.code_form`): the signature asked, the body of
-asserts answered; the body is read back into a condition and validated like any answer.
+with the question as the last turn. In v6 (beyond the paper), a left-out primitive is asked in one chat
+whose examples are Python functions (:mod:`taskcond.code_form`): the signature asked, the body of asserts
+answered; the body is read back into a condition and validated like any answer. v7 (the default) is v6
+whose code chat adds when a container's state is asserted: only when the task opens or closes it, or puts
+something inside it.
 
 Beyond the paper, the answer's form is guaranteed: a GBNF grammar constrains decoding where the backend
 supports it, and every answer passes a validator that checks the vocabulary, the task's objects and that
@@ -55,7 +57,7 @@ Chat = Literal["spatial", "state", "code"]
 CHATS: tuple[Chat, ...] = ("spatial", "state")
 """The paper's two chats (§III-B); a prompt version with the code form asks a left-out primitive in one
 ``"code"`` chat instead."""
-PROMPT_VERSION = "v6"
+PROMPT_VERSION = "v7"
 ExampleOrder = Literal["auto", "registry", "similar", "recall"]
 GrammarUse = Literal["always", "fallback", "never"]
 REASONING = "Reasoning:"

@@ -236,8 +236,9 @@ def table_specs() -> dict[str, TableSpec]:
                 methods={"llm": "llm", "llm+demo": "llm+demo"},
                 notes={
                     "llm": "each episode leaves one primitive of the task, drawn from its seed, out of the "
-                    "LLM's examples: that primitive's condition is generalized (prompt v6: the code form, "
-                    "examples shuffled by the episode's seed), the others generated without its example",
+                    "LLM's examples: that primitive's condition is generalized (the default prompt version's "
+                    "code form, examples shuffled by the episode's seed), the others generated without its "
+                    "example",
                     "llm+demo": "beyond the paper: the same episodes with every condition grounded in the "
                     "demonstration of its skill (taskcond.grounding)",
                 },
