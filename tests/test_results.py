@@ -7,6 +7,7 @@ import json
 
 import pytest
 
+from taskcond.generator import PROMPT_VERSION
 from taskcond.reproduce import Cell, build_cells, paper_values, table_specs, trials_for, wilson_interval
 from taskcond.results import ConfigMismatchError, ResultsFile, RunConfig, code_version, llm_fields
 
@@ -37,7 +38,9 @@ def test_a_results_file_holds_one_configuration(tmp_path) -> None:
     assert [r["seed"] for r in again.crashes()] == [2]
     with pytest.raises(ConfigMismatchError, match=r"noise: 0.005 \(file\) vs 0.08 \(now\)"):
         ResultsFile(path, config(noise=0.08))
-    with pytest.raises(ConfigMismatchError, match="prompt_version: 'v6' \\(file\\) vs 'v4' \\(now\\)"):
+    with pytest.raises(
+        ConfigMismatchError, match=rf"prompt_version: '{PROMPT_VERSION}' \(file\) vs 'v4' \(now\)"
+    ):
         ResultsFile(path, config(prompt_version="v4"))
     old = tmp_path / "old.jsonl"
     old.write_text(json.dumps({"task": "t", "method": "none", "seed": 1, "success": True}) + "\n")
