@@ -71,6 +71,13 @@ def _observation(info: EnvironmentInfo, round_: frozenset[str], lying: frozenset
 SWEEP_WITHIN = 0.05
 """Distance (m) up to which :meth:`KitchenWorld.sweep` measures the arm's clearance."""
 
+FLAT = 0.02
+"""Perceived height (m) under which a soft body lies flat on the table. Its centre's height is then the
+height at which it rests (:attr:`~taskcond.sim.cloth.ClothSpec.collision_margin` above the table top), not
+the perceived one: for a layer a few millimetres thick the perceived height is the perception noise
+(σ = 5 mm by default) and the bumps of what lies on it, and LHT4's fold grips the cloth within a 16 mm
+window of fingertip heights."""
+
 
 class KitchenWorld:
     """A :class:`KitchenEnv` seen through the environment-information layer (§III-A.2).
@@ -111,6 +118,9 @@ class KitchenWorld:
         self._arms = ("gripper",) if env.kinova is None else ("gripper", KINOVA_GRIPPER)
         self._bodies = (env.robot.body,) if env.kinova is None else (env.robot.body, env.kinova.body_id)
         self._kinova_command: np.ndarray | None = None
+        cloth = env.scene.config.cloth if getattr(env.scene, "cloth", None) is not None else None
+        self._rest = {} if cloth is None else {"cloth": cloth.collision_margin}
+        """Soft body → the height (m) of its centre lying flat on the table (:data:`FLAT`)."""
         self._joints = tuple(env.scene.joints)
         self._interiors = tuple(env.scene.interiors)
         self._round = frozenset(
@@ -184,7 +194,14 @@ class KitchenWorld:
         if name == "position":
             target = self.env.target
             return None if not np.any(target) else np.asarray(target, float).copy()
-        return observation.centers.get(name)
+        centre = observation.centers.get(name)
+        rest = self._rest.get(name)
+        if centre is None or rest is None:
+            return centre
+        lower, upper = observation.boxes[name]
+        if upper[2] - lower[2] >= FLAT:
+            return centre
+        return np.array([centre[0], centre[1], rest])
 
     def affords(self, primitive: str, objects: tuple[str, ...]) -> str | None:
         unknown = [o for o in objects if o not in self._objects]
