@@ -316,3 +316,33 @@ def test_an_instruction_whose_roles_are_impossible_is_one_line_and_nothing_runs(
     assert res.exit_code == 2, res.output
     assert res.stderr.startswith("error: cannot 'move box into bottle': 'box' cannot be moved")
     assert res.stderr.count("\n") == 1 and not (tmp_path / "runs").exists()
+
+
+def test_a_flat_cloth_is_located_at_its_resting_height_whatever_the_noise() -> None:
+    """The cloth lying flat: its perceived centre's height is noise (σ = 1 cm here), so the world locates
+    it at its resting height, the x and y still perceived; a cloth perceived taller than
+    :data:`~taskcond.execution.kitchen.FLAT` keeps its perceived centre."""
+    from dataclasses import replace
+
+    from taskcond.execution.kitchen import FLAT
+
+    env = make("fold-cloth")
+    try:
+        env.reset(seed=0)
+        world = KitchenWorld(env, noise_sigma=0.01, seed=4)
+        rest = env.scene.config.cloth.collision_margin
+        heights, xs = set(), set()
+        for _ in range(5):
+            position, orientation = world.ee_pose(2)
+            world.step(position, orientation, 1.0)
+            obs = world.observe()
+            centre = world.locate("cloth", obs)
+            lower, upper = obs.boxes["cloth"]
+            if upper[2] - lower[2] < FLAT:
+                heights.add(round(float(centre[2]), 9))
+                xs.add(round(float(centre[0]), 9))
+        assert heights == {round(rest, 9)} and len(xs) > 1
+        tall = replace(obs, boxes={**obs.boxes, "cloth": (lower, lower + np.array([0.2, 0.2, 0.05]))})
+        assert world.locate("cloth", tall)[2] == obs.centers["cloth"][2]
+    finally:
+        env.close()
