@@ -18,7 +18,7 @@ from taskcond.conditions import (
     TaskCondition,
 )
 from taskcond.dmp import rollout
-from taskcond.execution.collisions import CollisionMonitor, Landing, allowed_for_arms, landings
+from taskcond.execution.collisions import CollisionMonitor, Landing, allowed_for_arms, landings, riders
 from taskcond.execution.decompose import DecompositionError, parse_plan, with_object_names, with_releases
 from taskcond.execution.executor import CARRY_MARGIN, _carry_height, _part_way, _support_below
 from taskcond.execution.skills import (
@@ -308,6 +308,40 @@ def test_a_collision_of_the_gripper_is_allowed_for_every_arm_of_a_multi_arm_skil
     both = allowed_for_arms(allowed, ("gripper", "kinova gripper"))
     assert both == {*allowed, Collision("kinova gripper", "cloth")}
     assert allowed_for_arms(allowed, ("gripper",)) == set(allowed)
+
+
+def test_what_lies_on_the_object_a_gripper_may_touch_may_be_touched_too() -> None:
+    """LHT4's fold allows ``gripper and cloth``; the spatula lies on the cloth, so both arms' grippers may
+    touch it while laying the cloth over it. The mug on the table is no such object (the table is not
+    the gripper's to touch), nor is a gripper above the cloth."""
+    cond = TaskCondition(
+        "fold cloth",
+        ("cloth",),
+        (GripperState(None),),
+        (GripperState(None),),
+        (Collision("gripper", "cloth"),),
+    )
+    obs = Observation(
+        frozenset(
+            {
+                SpatialRelation("spatula", Relation.ABOVE, "cloth"),
+                SpatialRelation("mug", Relation.ABOVE, "table"),
+                SpatialRelation("gripper", Relation.ABOVE, "cloth"),
+            }
+        ),
+        {},
+        (),
+    )
+    arms = ("gripper", "kinova gripper")
+    assert riders(cond, obs, arms) == {
+        Collision("gripper", "spatula"),
+        Collision("kinova gripper", "spatula"),
+    }
+    monitor = CollisionMonitor.start(cond, obs, arms)
+    spatula = Touch("kinova gripper", "spatula", np.array([0.45, 0.35, 0.02]))
+    mug = Touch("kinova gripper", "mug", np.array([0.45, 0.35, 0.02]))
+    assert monitor.unallowed([spatula], closed=True) is None
+    assert monitor.unallowed([spatula, mug], closed=True) is mug
 
 
 def test_the_collision_monitor_reports_only_new_unallowed_contacts_of_what_moves() -> None:

@@ -17,6 +17,10 @@ Beyond the paper's literal set of allowed pairs:
 * a gripper's contact with a container that it, or the object it holds, is inside when the primitive
   starts (releasing the toothpaste in the mug opens the fingers against the mug's wall) is allowed: it can
   only leave that container, and moving the goal towards the wall would squeeze what it has just let go;
+* a gripper's contact with an object that lies on an object the condition lets it touch, at the
+  primitive's start, is allowed (:func:`riders`): folding the cloth lays its top layer, and the Kinova's
+  fingers holding it, over the spatula lying on the cloth; moving the goal away from the spatula would
+  fold the cloth short of its edge;
 * a pair of bodies adjusts the goal once per rollout (:meth:`CollisionMonitor.adjusted`): a contact away
   from the goal (a rim crossed on the way) recurs after every back-up, and moving the goal again each time
   would carry it away.
@@ -91,6 +95,21 @@ def containers_left(obs: Observation, arms: Sequence[str]) -> set[Collision]:
     }
 
 
+def riders(cond: TaskCondition, obs: Observation, arms: Sequence[str]) -> set[Collision]:
+    """Contacts of each of ``arms``' grippers with an object that lies on (``X above Y`` in ``obs``) an
+    object Y which ``cond`` allows the gripper to touch (module doc)."""
+    handled = {c.b if is_gripper(c.a) else c.a for c in cond.collisions if is_gripper(c.a) != is_gripper(c.b)}
+    return {
+        Collision(g, q.subject)
+        for q in obs.predicates
+        if isinstance(q, SpatialRelation)
+        and q.relation == Relation.ABOVE
+        and q.reference in handled
+        and not is_gripper(q.subject)
+        for g in arms
+    }
+
+
 @dataclass
 class CollisionMonitor:
     """Alg. 2's ``currentColl not in taskColl`` (lines 8–9) for one execution of a primitive.
@@ -99,7 +118,8 @@ class CollisionMonitor:
         held: objects the moving arms grasp at the start; while the gripper is closed their contacts are the
             arm's own.
         seen: contacts there at the start, and those the goal was already adjusted for.
-        allowed: the condition's allowed collisions for the moving arms, and the containers being left.
+        allowed: the condition's allowed collisions for the moving arms, the containers being left and what
+            lies on what the gripper may touch.
         arrivals: the landings the post-conditions imply, by pair.
     """
 
@@ -114,7 +134,9 @@ class CollisionMonitor:
         return cls(
             held={o for g in arms if (o := obs.grasped(g)) is not None},
             seen={t.collision for t in obs.touches},
-            allowed=allowed_for_arms(cond.collisions, arms) | containers_left(obs, arms),
+            allowed=allowed_for_arms(cond.collisions, arms)
+            | containers_left(obs, arms)
+            | riders(cond, obs, arms),
             arrivals=landings(cond, obs),
         )
 
@@ -138,4 +160,4 @@ class CollisionMonitor:
         self.seen.add(touch.collision)
 
 
-__all__ = ["CollisionMonitor", "Landing", "allowed_for_arms", "containers_left", "landings"]
+__all__ = ["CollisionMonitor", "Landing", "allowed_for_arms", "containers_left", "landings", "riders"]
