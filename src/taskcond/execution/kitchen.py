@@ -191,6 +191,7 @@ class KitchenWorld:
         return tuple(Touch(*names[k], np.mean(v, axis=0)) for k, v in merged.items())
 
     def locate(self, name: str, observation: Observation) -> np.ndarray | None:
+        """The perceived centre; a soft body perceived flatter than :data:`FLAT` at its resting height."""
         if name == "position":
             target = self.env.target
             return None if not np.any(target) else np.asarray(target, float).copy()
