@@ -19,7 +19,13 @@ from taskcond.conditions import (
 )
 from taskcond.dmp import rollout
 from taskcond.execution.collisions import CollisionMonitor, Landing, allowed_for_arms, landings, riders
-from taskcond.execution.decompose import DecompositionError, parse_plan, with_object_names, with_releases
+from taskcond.execution.decompose import (
+    DecompositionError,
+    parse_plan,
+    with_object_names,
+    with_releases,
+    without_carry_releases,
+)
 from taskcond.execution.executor import CARRY_MARGIN, _carry_height, _part_way, _support_below
 from taskcond.execution.skills import (
     HALF_TURN,
@@ -238,6 +244,20 @@ def test_a_moved_object_is_released_after_its_last_move_unless_a_later_step_hand
     assert with_releases(carried) == carried
     moved_on = ["grasp mug", "move mug in front of box", "move mug on top of box", "release mug"]
     assert with_releases(moved_on) == moved_on
+
+
+def test_a_release_after_a_carry_is_dropped_unless_the_instruction_asks_to_let_go() -> None:
+    """The model adds ``release bowl`` after ``move bowl to position`` by the prompt's rule; a carry leaves
+    the bowl held unless the words ask for it to be let go. Releases after places stay."""
+    plan = ["grasp bowl", "move bowl to position", "release bowl"]
+    held = without_carry_releases(plan, "Pick up the bowl and move it to the target position.")
+    assert held == ["grasp bowl", "move bowl to position"]
+    assert without_carry_releases(plan, "Move the bowl to the target position and let go of it.") == plan
+    assert without_carry_releases(plan, "Carry the bowl to the target position, then release it") == plan
+    placed = ["grasp mug", "move mug on top of box", "release mug"]
+    assert without_carry_releases(placed, "Move the mug onto the box.") == placed
+    other = ["grasp bowl", "move bowl to position", "release mug"]
+    assert without_carry_releases(other, "Move the bowl to the target position.") == other
 
 
 def test_parse_plan_accepts_numbered_lines_and_rejects_unknown_objects() -> None:

@@ -87,6 +87,26 @@ def with_releases(tasks: Sequence[str]) -> list[str]:
     return plan
 
 
+LET_GO = ("release", "let go", "drop", "put down", "set down", "place", "put it", "leave")
+"""Words by which an instruction asks for what it holds to be let go of."""
+
+
+def without_carry_releases(tasks: Sequence[str], instruction: str) -> list[str]:
+    """``tasks`` without a ``release A`` that directly follows ``move A to position`` when ``instruction``
+    has none of the :data:`LET_GO` words: a move to a position is a carry that leaves the object held
+    (:data:`PLACES`), and a small model adds the release by the prompt's rule "release it after"."""
+    text = " ".join("".join(c if c.isalnum() else " " for c in instruction.lower()).split())
+    if any(f" {w} " in f" {text} " for w in LET_GO):
+        return list(tasks)
+    plan: list[str] = []
+    for name in tasks:
+        task, last = parse_task(name), parse_task(plan[-1]) if plan else None
+        carried = last is not None and last.primitive.id == "move" and last.objects[:1] == task.objects[:1]
+        if not (task.primitive.id == "release" and carried):
+            plan.append(name)
+    return plan
+
+
 def _part_of(name: str, objects: Sequence[str]) -> str:
     """The scene object that ``name`` names by one of its parts (``microwave door``, ``box lid``: the one
     object of ``objects`` that ``name`` starts or ends with as whole words), else ``name``."""
@@ -116,7 +136,8 @@ def decompose(
     version: str = "v1",
     aliases: Mapping[str, str] | None = None,
 ) -> list[str]:
-    """Ask the LLM for the primitive tasks of ``instruction`` in order (:func:`with_releases` added),
+    """Ask the LLM for the primitive tasks of ``instruction`` in order (a release the instruction does not
+    ask for after a carry dropped, :func:`without_carry_releases`; :func:`with_releases` added),
     the objects' ``aliases`` (alias → object name) replaced by their names first
     (:func:`with_object_names`).
 
@@ -138,7 +159,7 @@ def decompose(
             )
         )
         try:
-            return with_releases(parse_plan(response.text, objects, affords))
+            return with_releases(without_carry_releases(parse_plan(response.text, objects, affords), text))
         except DecompositionError as exc:
             error = str(exc)
             messages += [
@@ -156,4 +177,5 @@ __all__ = [
     "parse_plan",
     "with_object_names",
     "with_releases",
+    "without_carry_releases",
 ]
