@@ -91,19 +91,27 @@ LET_GO = ("release", "let go", "drop", "put down", "set down", "place", "put it"
 """Words by which an instruction asks for what it holds to be let go of."""
 
 
+def mentions(instruction: str, words: Sequence[str]) -> bool:
+    """Whether ``instruction`` contains one of ``words`` (each one or more lower-case words) as whole words,
+    whatever the case and punctuation."""
+    text = " ".join("".join(c if c.isalnum() else " " for c in instruction.lower()).split())
+    return any(f" {w} " in f" {text} " for w in words)
+
+
 def without_carry_releases(tasks: Sequence[str], instruction: str) -> list[str]:
     """``tasks`` without a ``release A`` that directly follows ``move A to position`` when ``instruction``
     has none of the :data:`LET_GO` words: a move to a position is a carry that leaves the object held
     (:data:`PLACES`), and a small model adds the release by the prompt's rule "release it after"."""
-    text = " ".join("".join(c if c.isalnum() else " " for c in instruction.lower()).split())
-    if any(f" {w} " in f" {text} " for w in LET_GO):
+    if mentions(instruction, LET_GO):
         return list(tasks)
     plan: list[str] = []
+    last = None  # the last task kept, parsed
     for name in tasks:
-        task, last = parse_task(name), parse_task(plan[-1]) if plan else None
+        task = parse_task(name)
         carried = last is not None and last.primitive.id == "move" and last.objects[:1] == task.objects[:1]
         if not (task.primitive.id == "release" and carried):
             plan.append(name)
+            last = task
     return plan
 
 
@@ -174,6 +182,7 @@ __all__ = [
     "DecompositionError",
     "LLMError",
     "decompose",
+    "mentions",
     "parse_plan",
     "with_object_names",
     "with_releases",

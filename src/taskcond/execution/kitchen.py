@@ -25,6 +25,7 @@ from taskcond.conditions import (
     SpatialRelation,
 )
 from taskcond.envs.kitchen import KitchenEnv
+from taskcond.execution.decompose import mentions
 from taskcond.execution.demofile import RecordedTrajectory
 from taskcond.execution.skills import Demonstration, SkillLibrary, learn_skill, target_object
 from taskcond.execution.sources import condition_from_environment
@@ -287,8 +288,7 @@ DUAL_ARM_WORDS = ("cloth", "fold", "kinova", "second arm", "other arm", "both ar
 def instruction_scene(instruction: str) -> str:
     """The scene an instruction needs (:data:`SCENES`): ``dual-arm`` when it names the cloth or a second
     arm (:data:`DUAL_ARM_WORDS`), else ``kitchen``."""
-    text = " ".join("".join(c if c.isalnum() else " " for c in instruction.lower()).split())
-    return "dual-arm" if any(f" {w} " in f" {text} " for w in DUAL_ARM_WORDS) else "kitchen"
+    return "dual-arm" if mentions(instruction, DUAL_ARM_WORDS) else "kitchen"
 
 
 STARTS = ("task", "random")
