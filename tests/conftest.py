@@ -1,8 +1,45 @@
-"""Shared fixtures. The embedded model is loaded once per test session (it is the expensive part)."""
+"""Shared fixtures. Every test runs the project, not the user's settings (:func:`_project_only`); the
+embedded model is loaded once per test session (it is the expensive part)."""
 
 from __future__ import annotations
 
+import os
+from pathlib import Path
+
 import pytest
+
+from taskcond.llm.models import cache_dir
+
+USER_SETTINGS = ("TASKCOND_LLM", "TASKCOND_PRIMITIVES", "TASKCOND_ASSET_DIR", "RAY_ADDRESS")
+"""Variables by which a user chooses an LLM, declares primitives, moves the generated assets or names a
+Ray cluster: unset for the tests, with every ``OPENAI_*`` variable."""
+
+
+@pytest.fixture(scope="session", autouse=True)
+def _project_only(tmp_path_factory: pytest.TempPathFactory):
+    """Isolate the test session from the user's home and environment.
+
+    * ``TASKCOND_CONFIG`` points at a file that does not exist, so no ``config.toml`` of the user's is read;
+    * ``TASKCOND_CACHE_DIR`` is a new directory per session: every LLM answer is asked of the model again
+      (nothing is served from an earlier run's response cache or saved prefix states), and a skill library
+      is learned by the test that needs it (the suite's fixtures learn theirs into temporary directories);
+    * the user's LLM, declared primitives, asset directory, ``OPENAI_*`` and ``RAY_ADDRESS`` are unset.
+
+    One thing stays shared: the assembled embedded model, ``<the user's cache dir>/models`` (linked into the
+    session's cache). It is never stale: it is checked against its pinned SHA-256 when assembled, and a
+    stamp of its size, mtime and digest is checked at every load (:func:`taskcond.llm.models.model_path`).
+    """
+    shared_models = cache_dir() / "models"  # resolved before the user's variables are dropped
+    shared_models.mkdir(parents=True, exist_ok=True)
+    session_cache = tmp_path_factory.mktemp("taskcond-cache")
+    (session_cache / "models").symlink_to(shared_models, target_is_directory=True)
+    patch = pytest.MonkeyPatch()
+    patch.setenv("TASKCOND_CONFIG", str(session_cache / "no-config.toml"))
+    patch.setenv("TASKCOND_CACHE_DIR", str(session_cache))
+    for name in [*USER_SETTINGS, *(k for k in os.environ if k.startswith("OPENAI_"))]:
+        patch.delenv(name, raising=False)
+    yield Path(session_cache)
+    patch.undo()
 
 
 @pytest.fixture(scope="session")
@@ -13,3 +50,13 @@ def embedded_backend():
     backend = EmbeddedBackend()
     backend._load()
     return backend
+
+
+def pytest_sessionfinish(session: pytest.Session) -> None:
+    """With ``TASKCOND_TEST_NO_SKIP`` set (``make test`` sets it: it installs every extra), a skipped test
+    fails the session, so that an extra that went missing cannot pass quietly."""
+    reporter = session.config.pluginmanager.get_plugin("terminalreporter")
+    skipped = reporter.stats.get("skipped", []) if reporter else []
+    if os.environ.get("TASKCOND_TEST_NO_SKIP") and skipped:
+        reporter.write_line(f"error: {len(skipped)} skipped; make test installs every extra", red=True)
+        session.exitstatus = pytest.ExitCode.TESTS_FAILED

@@ -10,6 +10,7 @@ from dataclasses import dataclass, field
 
 import pytest
 
+from doubles import Spoiled
 from taskcond.conditions import ConditionError, TaskCondition
 from taskcond.examples import reference_condition
 from taskcond.generator import ConditionGenerator, answer_grammar, examples_block, parse_answer
@@ -196,17 +197,22 @@ def test_embedded_constrained_answers_are_always_valid(embedded_backend, pid):
 
 @pytest.mark.llm
 def test_embedded_free_answer_falls_back_to_the_grammar(embedded_backend):
-    """With the default fallback, a left-out primitive gets a valid condition within one constrained retry
-    (the two chain-of-thought chats of v5; the code form of v6 in test_code_form.py). Four primitives that
-    the constrained test below leaves out, changing a grasp, a container, the cloth and a placement, keep
-    the test short."""
-    gen = ConditionGenerator(embedded_backend, max_retries=1, prompt_version="v5")
+    """With the default fallback, a rejected free answer is retried once with the answer grammar sent
+    (constrained decoding), and the constrained answer is valid. The first answer of each chat is spoiled so
+    that the fallback runs every time; the retry is the real model's (the two chain-of-thought chats of v5;
+    the code form of v6 in test_code_form.py). Four primitives that the constrained test above leaves out,
+    changing a grasp, a container, the cloth and a placement, keep the test short."""
     for pid in ("grasp", "open", "fold", "move_in_front"):
+        spoiled = Spoiled(embedded_backend, "Relevant objects: C, gripper\n", spoil=lambda k: k % 2 == 0)
+        gen = ConditionGenerator(spoiled, max_retries=1, prompt_version="v5")
         prim = PRIMITIVES[pid]
         result = gen.generate(prim.task_name(*["cup", "lunch box"][: prim.n_objects]), exclude=[pid])
-        assert result.attempts in (2, 3, 4)
+        constrained = [r.grammar is not None for r in spoiled.requests]
+        assert result.attempts == 4 and constrained == [False, True, False, True], pid
         for transcript in result.transcripts:
-            assert len(transcript.answers) == len(transcript.errors) + 1
+            assert len(transcript.answers) == 2 and len(transcript.errors) == 1
+            assert transcript.answers[0] == "Relevant objects: C, gripper\n"
+        assert result.condition.mentioned_objects() <= {"cup", "lunch box", "gripper"}
 
 
 @pytest.mark.llm

@@ -23,8 +23,8 @@ from taskcond.conditions import (
 from taskcond.envs.kitchen import KitchenEnv
 from taskcond.execution.executor import Executor
 from taskcond.execution.kitchen import FreeTask, KitchenWorld, learn_library
-from taskcond.execution.runner import RunPlan, plan_run, run_episode
-from taskcond.execution.sources import EnvConditions, LLMConditions
+from taskcond.execution.runner import RunPlan, llm_decomposer, plan_run, run_episode
+from taskcond.execution.sources import EnvConditions, GroundedConditions, LLMConditions
 from taskcond.generator import ConditionGenerator
 from taskcond.tasks.registry import make
 
@@ -116,15 +116,18 @@ def test_alg1_stops_on_a_cycle_with_a_reason(library) -> None:
 
 
 def test_alg2_backs_up_and_moves_the_goal_on_an_unallowed_collision(library) -> None:
-    """A grasp whose condition allows no collision with the bottle: touching it is reported and the goal
-    moved horizontally away from the contact by at most 5 cm."""
+    """A grasp whose condition allows no collision with the bottle: touching it is reported, the arm backs
+    up and the goal is moved horizontally away from the contact by at most 5 cm, a bounded number of times;
+    then the grasp goes on and holds the bottle (its post-condition checked, the task's success)."""
     strict = {"grasp bottle": TaskCondition("grasp bottle", post_conditions=(GripperState("bottle"),))}
     env = make("grasp-bottle")
     try:
         env.reset(seed=0)
         result = Executor(KitchenWorld(env), library, "llm", Fixed(strict)).run(["grasp bottle"])
+        assert result.completed and result.failure is None and env.task.success(env)
     finally:
         env.close()
+    assert [e.kind for e in result.events].count("post") == 1
     hits = [e for e in result.events if e.kind == "collision"]
     assert hits and result.adjustments == len(hits)
     assert {Collision(*hits[0].data["collision"])} == {Collision("gripper", "bottle")}
@@ -168,9 +171,12 @@ def test_bad_input_fails_with_a_reason(library) -> None:
         assert result.failure_kind == "bad_task" and "'banana' not in the scene" in result.failure
         result = Executor(world, library, "none").run(["open table"])
         assert result.failure_kind == "bad_task" and "has no lid, door or drawer" in result.failure
-        env.target = np.array([1.6, 0.0, 0.2])
+        env.scene.place("bottle", (0.95, 0.0), 0.0)  # on the table, beyond the arm's reach
+        result = Executor(world, library, "none").run(["grasp bottle"])
+        assert result.failure_kind == "unreachable" and "is out of reach" in result.failure
+        assert "from the gripper's shoulder, it reaches" in result.failure
         result = Executor(world, library, "none").run(["move bottle to position"])
-        assert result.failure_kind in ("unreachable", "no_skill")
+        assert result.failure_kind == "no_skill" and "move" in result.failure  # no move demonstrated
     finally:
         env.close()
 
@@ -219,6 +225,33 @@ def test_lht1_with_embedded_llm_conditions(library, embedded_backend) -> None:
     assert set(result.conditions) >= {"grasp bottle", "close box"}
 
 
+@pytest.mark.llm
+def test_lht1_with_llm_conditions_grounded_in_the_demonstrations(library, embedded_backend) -> None:
+    """``llm+demo`` on a suite long-horizon task: each step's LLM condition grounded in its primitive's
+    demonstration (the repairs in the trace), and the task succeeds."""
+    source = GroundedConditions(ConditionGenerator(embedded_backend), library)
+    result = run_episode(plan_run("LHT1"), "llm+demo", 1001, library, source)
+    assert result.success, (result.reason, [e["message"] for e in result.events][-6:])
+    assert result.method == "llm+demo" and set(result.conditions) == set(plan_run("LHT1").steps)
+    repairs = {e["task"]: e["repairs"] for e in result.events if e["kind"] == "repair"}
+    assert repairs == {t: [r.to_dict() for r in rs] for t, rs in source.repairs.items() if rs}
+
+
+@pytest.mark.llm
+def test_a_multi_step_free_instruction_from_a_random_start(library, embedded_backend) -> None:
+    """A user's instruction in their own words: the real model decomposes it, the LLM writes each step's
+    condition, the planner and Alg. 1 fill in what the random start needs, and the goal (derived from the
+    plan) holds at the end by the ground truth."""
+    instruction = "Place the bottle inside the box, then shut the box."
+    plan = plan_run(instruction, llm_decomposer(backend=embedded_backend))
+    assert plan.decomposed and plan.steps[0] == "grasp bottle" and plan.steps[-1] == "close box"
+    source = LLMConditions(ConditionGenerator(embedded_backend))
+    result = run_episode(plan, "llm", 1002, library, source, start_state="random")
+    assert result.start == "random"
+    assert result.success and result.goal_missing == [], (result.reason, result.events[-4:])
+    assert {"bottle inside box", "box closed"} <= set(result.goal) <= set(result.final_predicates)
+
+
 def test_fold_runs_both_arms_from_one_two_arm_skill(tmp_path) -> None:
     """The dual-arm fold demonstration becomes one skill of 6-dimensional DMPs (both arms' positions);
     executed from the cloth's perceived centre it folds the cloth with both arms. In the single-arm scene
@@ -255,24 +288,30 @@ def test_a_free_instruction_whose_goal_does_not_hold_fails_and_its_trace_has_the
 
 def test_the_planner_inserts_open_box_before_the_grasp_with_fixed_conditions(library) -> None:
     """LHT1 from a closed box (the free scene): the planner opens the box before the grasp, so Alg. 1
-    never throws the bottle away to open it."""
+    never throws the bottle away to open it; the plan then reaches its goal. The conditions are the
+    reference ones, shortened to what the planner needs (each allows the gripper to touch what it handles:
+    a grasp that may not touch the bottle cannot hold it)."""
     conditions = {
         "grasp bottle": TaskCondition(
-            "grasp bottle", (), (GripperState(None),), (GripperState("bottle"),), ()
+            "grasp bottle",
+            (),
+            (GripperState(None),),
+            (GripperState("bottle"),),
+            (Collision("gripper", "bottle"),),
         ),
         "open box": TaskCondition(
             "open box",
             (),
             (GripperState(None), ContainerState("box", False)),
             (ContainerState("box", True),),
-            (),
+            (Collision("gripper", "box"),),
         ),
         "move bottle into box": TaskCondition(
             "move bottle into box",
             (),
             (GripperState("bottle"), ContainerState("box", True)),
             (SpatialRelation("bottle", Relation.INSIDE, "box"),),
-            (),
+            (Collision("gripper", "bottle"),),
         ),
     }
     plan = RunPlan("put the bottle into the box", None, ("grasp bottle", "move bottle into box"), True)
@@ -285,6 +324,8 @@ def test_the_planner_inserts_open_box_before_the_grasp_with_fixed_conditions(lib
     assert [str(q) for q in goal] == ["bottle inside box"]
     assert result.steps == list(repair.steps) and result.repair["changes"][0]["task"] == "open box"
     assert result.events[0]["message"] == "step: open box"
+    assert result.success and result.goal_missing == [], (result.reason, result.events[-3:])
+    assert "bottle inside box" in result.final_predicates and "box open" in result.final_predicates
 
 
 def test_random_start_is_seeded_and_collision_free() -> None:

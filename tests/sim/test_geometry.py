@@ -6,8 +6,11 @@ from __future__ import annotations
 from dataclasses import replace
 
 import numpy as np
-import pybullet as p
 import pytest
+
+pytest.importorskip("pybullet")
+
+import pybullet as p
 
 from taskcond.sim.assets import BoxSpec, MicrowaveSpec
 from taskcond.sim.scene import KitchenScene, SceneConfig

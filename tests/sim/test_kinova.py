@@ -7,10 +7,13 @@ import xml.etree.ElementTree as ET
 from collections.abc import Iterator
 
 import numpy as np
-import pybullet as p
-import pybullet_data
 import pytest
 from numpy.testing import assert_allclose
+
+pytest.importorskip("pybullet")
+
+import pybullet as p
+import pybullet_data
 from scipy.spatial.transform import Rotation
 
 from taskcond.sim.description import GripperSpec

@@ -6,10 +6,13 @@ from collections.abc import Iterator, Sequence
 from dataclasses import replace
 
 import numpy as np
-import pybullet as p
-import pybullet_data
 import pytest
 from numpy.testing import assert_allclose
+
+pytest.importorskip("pybullet")
+
+import pybullet as p
+import pybullet_data
 
 from taskcond.conditions import (
     Collision,

@@ -3,7 +3,6 @@
 
 from __future__ import annotations
 
-import importlib.util
 import json
 
 import pytest
@@ -98,8 +97,17 @@ def test_reproduce_writes_the_table_and_resumes(library_dir, tmp_path):
     assert bad.exit_code == 2 and "use one of table2, table3, table4 or all" in bad.output
 
 
-@pytest.mark.skipif(importlib.util.find_spec("ray") is None, reason="Ray is not installed (extra [ray])")
-def test_ray_gives_the_same_episodes_as_local_processes(library_dir, tmp_path):
+@pytest.fixture
+def own_ray():
+    """A new local Ray instance of two CPUs for this test alone, never a cluster that happens to be up (the
+    backend uses a Ray session its caller started as it is)."""
+    ray = pytest.importorskip("ray", reason="Ray is not installed (extra [ray])")
+    ray.init(address="local", num_cpus=2, include_dashboard=False, log_to_driver=False, logging_level="ERROR")
+    yield ray
+    ray.shutdown()
+
+
+def test_ray_gives_the_same_episodes_as_local_processes(library_dir, tmp_path, own_ray):
     jobs = [Job("grasp-bottle", "none", 1000 + k) for k in range(2)] + [Job("LHT1", "env", 1000)]
     config = execution_config(library_dir, 0.005)
     local = evaluate(jobs, ResultsFile(tmp_path / "local.jsonl", config), library_dir, workers=1)
@@ -137,6 +145,7 @@ def test_reproduce_table2_refuses_the_grounded_column_before_the_llm_without_a_d
     assert not (tmp_path / "table2.jsonl").exists()
 
 
+@pytest.mark.llm
 def test_reproduce_table2_grounds_the_generalization_answer_in_the_demonstration(library_dir, tmp_path):
     """Table II's grounded column: the leave-one-out answer (the embedded LLM), grounded in the grasp
     demonstration, matches the reference; its record lists the repairs and any extra relation."""

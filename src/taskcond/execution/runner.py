@@ -43,6 +43,7 @@ from taskcond.execution.kitchen import (
 from taskcond.execution.planner import Repair, goal_of, repair
 from taskcond.execution.skills import LIBRARY_FORMAT, SkillError, SkillLibrary
 from taskcond.execution.sources import EnvConditions, GroundedConditions, LLMConditions
+from taskcond.llm.base import ChatBackend
 from taskcond.llm.models import cache_dir
 from taskcond.primitives import TaskNameError, parse_task
 from taskcond.results import (
@@ -167,10 +168,14 @@ def plan_run(spec: str, decomposer: Callable[[str, str], list[str]] | None = Non
 
 
 def llm_decomposer(
-    llm: str | None = None, announce: Callable[[str], None] | None = None, threads: int | None = None
+    llm: str | None = None,
+    announce: Callable[[str], None] | None = None,
+    threads: int | None = None,
+    backend: ChatBackend | None = None,
 ) -> Callable[[str, str], list[str]]:
     """The ``decomposer`` of :func:`plan_run` with the LLM of ``llm`` (the ``--llm`` spec; answers cached;
-    an embedded model on ``threads`` CPU threads, None: every core):
+    an embedded model on ``threads`` CPU threads, None: every core), or with ``backend`` when given (a
+    backend the caller built, e.g. its own LLM client or a model already loaded):
     an instruction that reads as one primitive task the scene cannot do is refused first
     (:func:`refused_task`); ``announce`` is told the scene before the LLM is asked.
 
@@ -178,7 +183,7 @@ def llm_decomposer(
     from taskcond.execution.decompose import DecompositionError, decompose
     from taskcond.llm.config import LLMConfig, make_backend
 
-    backends: list[Any] = []
+    backends: list[Any] = [] if backend is None else [backend]
 
     def decomposer(instruction: str, scene: str) -> list[str]:
         objects, affords = scene_objects(scene)
