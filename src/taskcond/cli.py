@@ -444,7 +444,7 @@ def _sim_import() -> None:
 
 
 def _library(skills: Path | None):
-    from taskcond.execution.runner import default_library_dir, load_library
+    from taskcond.application.library import default_library_dir, load_library
     from taskcond.execution.skills import SkillError
 
     def told(task_id: str, ok: bool) -> None:
@@ -507,8 +507,8 @@ def learn(
         return
     from tqdm import tqdm
 
+    from taskcond.application.library import default_library_dir
     from taskcond.execution.kitchen import CONTEXTS, learn_library, primitive_task_ids
-    from taskcond.execution.runner import default_library_dir
     from taskcond.tasks.registry import UnknownTaskError, get_task
 
     if demo:
@@ -626,7 +626,7 @@ def _learn_files(files: list[Path], out: Path | None) -> None:
 
 
 def _default_library_dir() -> Path:
-    from taskcond.execution.runner import default_library_dir
+    from taskcond.application.library import default_library_dir
 
     return default_library_dir()
 
@@ -693,19 +693,14 @@ def run(
     Alg. 2 DMP control; a free instruction is judged by its goal predicates (exit 0 only on success)."""
     _sim_import()
     _declare(primitives)
+    from taskcond.application.condition_sources import make_source
+    from taskcond.application.episode import PLANNERS, run_episode
+    from taskcond.application.evaluate import execution_config
+    from taskcond.application.library import default_library_dir
+    from taskcond.application.plans import llm_decomposer, plan_run, refused_task
     from taskcond.execution.decompose import DecompositionError
     from taskcond.execution.executor import METHODS
     from taskcond.execution.kitchen import STARTS, scene_objects
-    from taskcond.execution.runner import (
-        PLANNERS,
-        default_library_dir,
-        execution_config,
-        llm_decomposer,
-        make_source,
-        plan_run,
-        refused_task,
-        run_episode,
-    )
 
     if method not in METHODS:
         fail(f"--method {method!r}: use one of {', '.join(METHODS)}")
@@ -842,18 +837,12 @@ def _run_episodes(
     see :func:`_crashed`."""
     from tqdm import tqdm
 
-    from taskcond.execution.runner import (
-        BACKENDS,
-        IMAGE_IL,
-        PLANNERS,
-        cpu_count,
-        default_library_dir,
-        evaluate,
-        execution_config,
-        make_source,
-        novel_primitive_source,
-        plan_run,
-    )
+    from taskcond.application.baseline import IMAGE_IL
+    from taskcond.application.condition_sources import make_source, novel_primitive_source
+    from taskcond.application.episode import PLANNERS
+    from taskcond.application.evaluate import BACKENDS, cpu_count, evaluate, execution_config
+    from taskcond.application.library import default_library_dir
+    from taskcond.application.plans import plan_run
     from taskcond.results import ConfigMismatchError, Job, ResultsFile
 
     if settings.backend not in BACKENDS:
@@ -947,8 +936,8 @@ def _instruction_steps(path: Path, ids: set[str], llm: str | None) -> dict[str, 
     plan for is left out: its episodes record the failure."""
     from tqdm import tqdm
 
+    from taskcond.application.plans import instruction_plan, llm_decomposer
     from taskcond.execution.decompose import DecompositionError
-    from taskcond.execution.runner import instruction_plan, llm_decomposer
     from taskcond.instructions import load_instructions
 
     decomposer = llm_decomposer(llm)
@@ -994,7 +983,8 @@ def _eval_execution(
     settings: ExecutionSettings,
 ) -> None:
     _sim_import()
-    from taskcond.execution.runner import EVAL_METHODS, NOVEL_METHODS, eval_task_ids, jobs_for, summarize
+    from taskcond.application.condition_sources import NOVEL_METHODS
+    from taskcond.application.evaluate import EVAL_METHODS, eval_task_ids, jobs_for, summarize
 
     novel = settings.novel_primitive
     if novel and kind != "long-horizon":
@@ -1162,9 +1152,9 @@ def eval_instructions(
     `taskcond run`, run per method, judged by its shipped goal predicates (ground truth); the record also
     says whether the goal the plan itself implies held."""
     _sim_import()
+    from taskcond.application.evaluate import jobs_for, summarize
     from taskcond.execution.executor import METHODS
     from taskcond.execution.kitchen import instruction_scene, scene_objects
-    from taskcond.execution.runner import jobs_for, summarize
     from taskcond.instructions import InstructionError, check_objects, default_file, load_instructions
 
     _check_start(start)
@@ -1249,7 +1239,7 @@ def _reproduce_conditions(spec, trials, out: Path, llm: str | None, skills: Path
     """Table II's trials into ``out`` (resuming it); returns the results and the configuration."""
     from tqdm import tqdm
 
-    from taskcond.execution.runner import default_library_dir
+    from taskcond.application.library import default_library_dir
     from taskcond.reproduce import condition_trial_runner
     from taskcond.results import (
         ConfigMismatchError,

@@ -7,7 +7,8 @@ not list is the paper's '-' (infeasible); a column listed under ``pending`` is a
 Adding a row, block or column is one entry here: once the runner knows a method, moving its column key
 from a block's ``pending`` to its ``methods`` makes ``taskcond reproduce`` run it, resume it and put it
 beside the paper's value. A block with ``novel_primitive`` (Table IV's third) runs its episodes with one
-primitive left out of the LLM's examples (:func:`taskcond.execution.runner.novel_primitive_source`).
+primitive left out of the LLM's examples
+(:func:`taskcond.application.condition_sources.novel_primitive_source`).
 
 Results go to ``DIR/tableN.jsonl`` through :class:`~taskcond.results.ResultsFile` (configuration
 recorded, resumable, crashed work retried; the novel-primitive episodes, another configuration, to
@@ -70,7 +71,8 @@ class Block:
             trial it has, once).
         notes: column key → how it is measured, printed under the block.
         novel_primitive: each episode leaves one primitive of its task out of the LLM's examples (its
-            records carry ``left_out``; see :func:`taskcond.execution.runner.novel_primitive_source`).
+            records carry ``left_out``; see
+            :func:`taskcond.application.condition_sources.novel_primitive_source`).
     """
 
     key: str

@@ -44,7 +44,7 @@ class RunConfig:
             :mod:`taskcond.execution.planner`) or ``none`` (the paper's sequence as given).
         novel_primitive: each episode leaves one primitive of its long-horizon task out of the LLM's
             examples, drawn from the episode's seed (Table IV, "generalize to novel primitive tasks";
-            :func:`taskcond.execution.runner.novel_primitive_source`).
+            :func:`taskcond.application.condition_sources.novel_primitive_source`).
         skills: the skill library, ``<directory name>@<SHA-256 prefix of its files>`` (None when unused).
         instructions: the instructions file of ``taskcond eval instructions``, ``<file name>@<SHA-256
             prefix>`` (None otherwise).

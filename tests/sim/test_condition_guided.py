@@ -11,6 +11,8 @@ from typer.testing import CliRunner
 
 pytest.importorskip("pybullet")
 
+from taskcond.application.episode import run_episode
+from taskcond.application.plans import RunPlan, plan_run
 from taskcond.cli import app
 from taskcond.conditions import (
     Collision,
@@ -23,7 +25,6 @@ from taskcond.conditions import (
 from taskcond.envs.kitchen import KitchenEnv
 from taskcond.execution.executor import Executor
 from taskcond.execution.kitchen import FreeTask, KitchenWorld, learn_library
-from taskcond.execution.runner import RunPlan, plan_run, run_episode
 from taskcond.execution.sources import EnvConditions, LLMConditions
 from taskcond.generator import ConditionGenerator
 from taskcond.tasks.registry import make
