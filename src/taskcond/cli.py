@@ -507,9 +507,9 @@ def learn(
         return
     from tqdm import tqdm
 
+    from taskcond.application.demonstrations import CONTEXTS, learn_library
     from taskcond.application.library import default_library_dir
-    from taskcond.execution.kitchen import CONTEXTS, learn_library, primitive_task_ids
-    from taskcond.tasks.registry import UnknownTaskError, get_task
+    from taskcond.tasks.registry import UnknownTaskError, get_task, primitive_task_ids
 
     if demo:
         if task:
@@ -560,8 +560,9 @@ def _il_policy(learn_if_missing: bool = True) -> Path:
         return directory
     if not learn_if_missing:
         fail(f"no image-il policy in {directory}; train it with `taskcond learn --method image-il`")
-    from taskcond.execution.kitchen import CONTEXTS, primitive_task_ids
+    from taskcond.application.demonstrations import CONTEXTS
     from taskcond.il.train import learn_policy
+    from taskcond.tasks.registry import primitive_task_ids
 
     data, spec = DataSpec(), TrainSpec()
     ids = [*primitive_task_ids(), *CONTEXTS]
@@ -596,8 +597,8 @@ def _il_policy(learn_if_missing: bool = True) -> Path:
 
 def _learn_files(files: list[Path], out: Path | None) -> None:
     """``taskcond learn --demo``: replay each file in its scene, learn its skill, add it to the library."""
+    from taskcond.application.demonstrations import replay_demonstration
     from taskcond.execution.demofile import DemoFileError, load_trajectory
-    from taskcond.execution.kitchen import replay_demonstration
     from taskcond.execution.skills import SkillLibrary, learn_skill
 
     # a new --out directory holds just these skills; the default library gets the oracles' skills first
@@ -641,7 +642,7 @@ def record(
 ) -> None:
     """Record the oracle of a suite primitive task as a demonstration file (what `learn --demo` reads)."""
     _sim_import()
-    from taskcond.execution.kitchen import record_trajectory
+    from taskcond.application.demonstrations import record_trajectory
 
     if out.suffix.lower() != ".json":
         fail(f"--out {out}: a demonstration file is .json")
@@ -700,7 +701,8 @@ def run(
     from taskcond.application.plans import llm_decomposer, plan_run, refused_task
     from taskcond.execution.decompose import DecompositionError
     from taskcond.execution.executor import METHODS
-    from taskcond.execution.kitchen import STARTS, scene_objects
+    from taskcond.tasks.free import STARTS
+    from taskcond.worlds.kitchen import scene_objects
 
     if method not in METHODS:
         fail(f"--method {method!r}: use one of {', '.join(METHODS)}")
@@ -966,7 +968,7 @@ def _crashed(crashed: list[dict]) -> None:
 
 
 def _check_start(start: str) -> None:
-    from taskcond.execution.kitchen import STARTS
+    from taskcond.tasks.free import STARTS
 
     if start not in STARTS:
         fail(f"--start {start!r}: use one of {', '.join(STARTS)}")
@@ -1153,9 +1155,10 @@ def eval_instructions(
     says whether the goal the plan itself implies held."""
     _sim_import()
     from taskcond.application.evaluate import jobs_for, summarize
+    from taskcond.application.plans import instruction_scene
     from taskcond.execution.executor import METHODS
-    from taskcond.execution.kitchen import instruction_scene, scene_objects
     from taskcond.instructions import InstructionError, check_objects, default_file, load_instructions
+    from taskcond.worlds.kitchen import scene_objects
 
     _check_start(start)
     methods = method or ["llm"]

@@ -138,8 +138,7 @@ IL_NOTE = (
 
 
 def _primitive_rows() -> tuple[Row, ...]:
-    from taskcond.execution.kitchen import primitive_task_ids
-    from taskcond.tasks.registry import get_task
+    from taskcond.tasks.registry import get_task, primitive_task_ids
 
     ids = primitive_task_ids()
     return tuple(
@@ -618,7 +617,7 @@ def covers(condition: Any, reference: Any) -> bool:
 def fromenv_skills(library: Any, primitive: str) -> list[Any]:
     """The skills learned from the suite's own primitive tasks of ``primitive`` (not the long-horizon
     steps), in suite order."""
-    from taskcond.execution.kitchen import primitive_task_ids
+    from taskcond.tasks.registry import primitive_task_ids
 
     ids = primitive_task_ids()
     skills = [s for s in library.skills.values() if s.primitive == primitive and s.task_id in ids]

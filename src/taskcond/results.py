@@ -39,7 +39,7 @@ class RunConfig:
         generator: the generator's other settings (self-consistency samples, grammar use).
         noise: perception noise σ, metres (execution only).
         start: how episodes start: ``task`` (the suite task's own start state) or ``random`` (a drawn
-            start state, :func:`taskcond.execution.kitchen.random_start`).
+            start state, :func:`taskcond.tasks.free.random_start`).
         planner: plan repair before execution: ``conditions`` (the look-ahead planner,
             :mod:`taskcond.execution.planner`) or ``none`` (the paper's sequence as given).
         novel_primitive: each episode leaves one primitive of its long-horizon task out of the LLM's

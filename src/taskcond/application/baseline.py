@@ -8,10 +8,8 @@ from typing import Any
 
 from taskcond.application.episode import EpisodeResult
 from taskcond.application.plans import RunPlan
-from taskcond.execution.kitchen import (
-    final_predicates,
-)
 from taskcond.sim.recording import VideoRecorder
+from taskcond.tasks.free import final_predicates
 from taskcond.tasks.registry import make
 
 IMAGE_IL = "image-il"

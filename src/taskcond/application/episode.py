@@ -22,17 +22,12 @@ from taskcond.application.plans import RunPlan
 from taskcond.conditions import Predicate, TaskCondition
 from taskcond.envs.kitchen import KitchenEnv
 from taskcond.execution.executor import ConditionSource, Event, ExecutionConfig, Executor, Method
-from taskcond.execution.kitchen import (
-    STARTS,
-    FreeTask,
-    KitchenWorld,
-    RandomStart,
-    final_predicates,
-)
 from taskcond.execution.planner import Repair, goal_of, repair
 from taskcond.execution.skills import SkillLibrary
 from taskcond.sim.recording import VideoRecorder
+from taskcond.tasks.free import STARTS, FreeTask, RandomStart, final_predicates
 from taskcond.tasks.registry import get_task, make
+from taskcond.worlds.kitchen import KitchenWorld
 
 PLANNERS = ("conditions", "none")
 """``conditions``: the look-ahead planner repairs the plan before execution (beyond the paper); ``none``:
@@ -74,7 +69,7 @@ class EpisodeResult:
         plan_goal: with a given goal, the goal :func:`~taskcond.execution.planner.goal_of` derives from the
             plan (what the plan itself claims to achieve); else empty.
         plan_goal_held: whether every ``plan_goal`` predicate holds at the end (None without a given goal).
-        start: ``task`` or ``random`` (:data:`~taskcond.execution.kitchen.STARTS`).
+        start: ``task`` or ``random`` (:data:`~taskcond.tasks.free.STARTS`).
         final_predicates: every relation and state that holds at the end (ground truth), sorted.
         events: the trace.
         conditions: task name → condition used (JSON form).
@@ -134,8 +129,8 @@ def run_episode(
     """Reset the plan's task with ``seed``, repair its steps with the planner (with conditions and
     ``planner="conditions"``), and execute them with ``method``. ``on_plan`` is told the repair and the
     goal before anything moves. ``start_state="random"`` draws the start from
-    :func:`~taskcond.execution.kitchen.random_start` (a suite task keeps what its start needs,
-    :class:`~taskcond.execution.kitchen.RandomStart`). ``goal`` (a free instruction only) replaces the goal
+    :func:`~taskcond.tasks.free.random_start` (a suite task keeps what its start needs,
+    :class:`~taskcond.tasks.free.RandomStart`). ``goal`` (a free instruction only) replaces the goal
     derived from the plan as the success criterion; the derived one is recorded beside it.
 
     Raises:

@@ -21,9 +21,6 @@ from taskcond.application.episode import DEFAULT_NOISE
 from taskcond.application.ray_backend import run_on_ray
 from taskcond.application.workers import WorkerArgs, init_worker, llm_threads, run_initialized
 from taskcond.execution.executor import METHODS, ExecutionConfig
-from taskcond.execution.kitchen import (
-    primitive_task_ids,
-)
 from taskcond.results import (
     Job,
     ResultsFile,
@@ -33,7 +30,7 @@ from taskcond.results import (
     file_digest,
     llm_fields,
 )
-from taskcond.tasks.registry import list_tasks
+from taskcond.tasks.registry import list_tasks, primitive_task_ids
 
 EVAL_METHODS: tuple[str, ...] = (*METHODS, IMAGE_IL)
 """Methods an evaluation runs: the executor's (:data:`~taskcond.execution.executor.METHODS`) and the

@@ -5,9 +5,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from pathlib import Path
 
-from taskcond.execution.kitchen import (
-    learn_library,
-)
+from taskcond.application.demonstrations import learn_library
 from taskcond.execution.skills import LIBRARY_FORMAT, SkillError, SkillLibrary
 from taskcond.llm.models import cache_dir
 from taskcond.tasks.oracle import ORACLE_REVISION

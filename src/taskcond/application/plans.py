@@ -8,13 +8,20 @@ from collections.abc import Callable, Iterable
 from dataclasses import dataclass, replace
 from typing import Any
 
-from taskcond.execution.kitchen import (
-    instruction_scene,
-    scene_objects,
-)
+from taskcond.execution.decompose import mentions
 from taskcond.primitives import TaskNameError, parse_task
 from taskcond.sim.scene import ALIASES
 from taskcond.tasks.registry import UnknownTaskError, get_task, list_tasks
+from taskcond.worlds.kitchen import scene_objects
+
+DUAL_ARM_WORDS = ("cloth", "fold", "kinova", "second arm", "other arm", "both arms", "two arms", "both hands")
+"""Words of an instruction that name what only the dual-arm kitchen has."""
+
+
+def instruction_scene(instruction: str) -> str:
+    """The scene an instruction needs (:data:`SCENES`): ``dual-arm`` when it names the cloth or a second
+    arm (:data:`DUAL_ARM_WORDS`), else ``kitchen``."""
+    return "dual-arm" if mentions(instruction, DUAL_ARM_WORDS) else "kitchen"
 
 
 # --------------------------------------------------------------------------------------------- plans
@@ -28,7 +35,7 @@ class RunPlan:
             (judged by its goal predicates).
         steps: primitive task names in order.
         decomposed: the steps come from the LLM's decomposition of a free instruction.
-        scene: a free instruction's scene (:data:`taskcond.execution.kitchen.SCENES`); a suite task has
+        scene: a free instruction's scene (:data:`taskcond.tasks.free.SCENES`); a suite task has
             its own.
     """
 
@@ -42,7 +49,7 @@ class RunPlan:
 def plan_run(spec: str, decomposer: Callable[[str, str], list[str]] | None = None) -> RunPlan:
     """Resolve ``spec``: a suite id (``LHT1``, ``grasp-bottle``), a primitive task name of the suite
     (``"grasp bottle"``), another primitive task name on objects of its scene (a declared primitive, or
-    objects no suite task has: one step in the scene :func:`~taskcond.execution.kitchen.instruction_scene`
+    objects no suite task has: one step in the scene :func:`~taskcond.application.plans.instruction_scene`
     picks), else a free instruction that ``decomposer`` turns into primitive task names (called with the
     instruction and its scene). A primitive task name on an object its scene lacks (``put the botle into
     the box``) goes to ``decomposer`` when there is one: the LLM reads a misspelling as the object meant.
