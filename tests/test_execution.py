@@ -17,15 +17,15 @@ from taskcond.conditions import (
     SpatialRelation,
     TaskCondition,
 )
-from taskcond.dmp import rollout
-from taskcond.execution.collisions import CollisionMonitor, Landing, allowed_for_arms, landings, riders
-from taskcond.execution.decompose import (
+from taskcond.decompose import (
     DecompositionError,
     parse_plan,
     with_object_names,
     with_releases,
     without_carry_releases,
 )
+from taskcond.dmp import rollout
+from taskcond.execution.collisions import CollisionMonitor, Landing, allowed_for_arms, landings, riders
 from taskcond.execution.executor import CARRY_MARGIN, _carry_height, _part_way, _support_below
 from taskcond.execution.skills import (
     HALF_TURN,

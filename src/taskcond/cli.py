@@ -699,7 +699,7 @@ def run(
     from taskcond.application.evaluate import execution_config
     from taskcond.application.library import default_library_dir
     from taskcond.application.plans import llm_decomposer, plan_run, refused_task
-    from taskcond.execution.decompose import DecompositionError
+    from taskcond.decompose import DecompositionError
     from taskcond.execution.executor import METHODS
     from taskcond.tasks.free import STARTS
     from taskcond.worlds.kitchen import scene_objects
@@ -939,7 +939,7 @@ def _instruction_steps(path: Path, ids: set[str], llm: str | None) -> dict[str, 
     from tqdm import tqdm
 
     from taskcond.application.plans import instruction_plan, llm_decomposer
-    from taskcond.execution.decompose import DecompositionError
+    from taskcond.decompose import DecompositionError
     from taskcond.instructions import load_instructions
 
     decomposer = llm_decomposer(llm)

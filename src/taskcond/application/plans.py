@@ -8,7 +8,7 @@ from collections.abc import Callable, Iterable
 from dataclasses import dataclass, replace
 from typing import Any
 
-from taskcond.execution.decompose import mentions
+from taskcond.decompose import mentions
 from taskcond.primitives import TaskNameError, parse_task
 from taskcond.sim.scene import ALIASES
 from taskcond.tasks.registry import UnknownTaskError, get_task, list_tasks
@@ -95,7 +95,7 @@ def llm_decomposer(
     (:func:`refused_task`); ``announce`` is told the scene before the LLM is asked.
 
     The decomposer raises DecompositionError (no valid plan, or refused) and LLMError."""
-    from taskcond.execution.decompose import DecompositionError, decompose
+    from taskcond.decompose import DecompositionError, decompose
     from taskcond.llm.config import LLMConfig, make_backend
 
     backends: list[Any] = []

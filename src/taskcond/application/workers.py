@@ -84,7 +84,7 @@ def run_initialized(job: Job) -> dict[str, Any]:
     that id (its plan from the LLM, judged by its goal; a plan the LLM cannot give is a failed episode,
     ``decomposition``). An exception is returned as a ``crashed`` record (not a result: a resumed
     evaluation runs it again)."""
-    from taskcond.execution.decompose import DecompositionError
+    from taskcond.decompose import DecompositionError
 
     sources: dict[str, ConditionSource | None] = _WORKER["sources"]
     method: Method = job.method  # type: ignore[assignment]
