@@ -25,8 +25,9 @@ from taskcond.decompose import (
     without_carry_releases,
 )
 from taskcond.dmp import rollout
+from taskcond.execution.approach import CARRY_MARGIN, _carry_height, _support_below
 from taskcond.execution.collisions import CollisionMonitor, Landing, allowed_for_arms, landings, riders
-from taskcond.execution.executor import CARRY_MARGIN, _carry_height, _part_way, _support_below
+from taskcond.execution.executor import _part_way
 from taskcond.execution.skills import (
     HALF_TURN,
     Demonstration,

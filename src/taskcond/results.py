@@ -51,7 +51,7 @@ class RunConfig:
         il: the image-based baseline's checkpoint (:mod:`taskcond.il`), ``<directory name>@<SHA-256 prefix
             of its files>``; None when the baseline does not run (then left out of :meth:`to_dict`, so the
             digests of configurations without it are those of earlier versions).
-        execution: the constants of Alg. 1 and Alg. 2 (:class:`~taskcond.execution.executor.ExecutionConfig`
+        execution: the constants of Alg. 1 and Alg. 2 (:class:`~taskcond.execution.config.ExecutionConfig`
             as a dict; empty for ``conditions``).
         code: ``git describe`` of the package's checkout (``-dirty+<diff hash>`` with local changes), else
             ``taskcond <package version>``.

@@ -21,7 +21,9 @@ from typing import Any
 from taskcond.application.plans import RunPlan
 from taskcond.conditions import Predicate, TaskCondition
 from taskcond.envs.kitchen import KitchenEnv
-from taskcond.execution.executor import ConditionSource, Event, ExecutionConfig, Executor, Method
+from taskcond.execution.config import ExecutionConfig
+from taskcond.execution.events import Event
+from taskcond.execution.executor import ConditionSource, Executor, Method
 from taskcond.execution.planner import Repair, goal_of, repair
 from taskcond.execution.skills import SkillLibrary
 from taskcond.sim.recording import VideoRecorder

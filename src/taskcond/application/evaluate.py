@@ -20,7 +20,8 @@ from taskcond.application.baseline import IMAGE_IL
 from taskcond.application.episode import DEFAULT_NOISE
 from taskcond.application.ray_backend import run_on_ray
 from taskcond.application.workers import WorkerArgs, init_worker, llm_threads, run_initialized
-from taskcond.execution.executor import METHODS, ExecutionConfig
+from taskcond.execution.config import ExecutionConfig
+from taskcond.execution.executor import METHODS
 from taskcond.results import (
     Job,
     ResultsFile,
