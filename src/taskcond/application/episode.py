@@ -24,7 +24,7 @@ from taskcond.envs.kitchen import KitchenEnv
 from taskcond.execution.config import ExecutionConfig
 from taskcond.execution.events import Event
 from taskcond.execution.executor import ConditionSource, Executor, Method
-from taskcond.execution.planner import Repair, goal_of, repair
+from taskcond.execution.planner import PlanRepair, goal_of, repair
 from taskcond.execution.skills import SkillLibrary
 from taskcond.sim.recording import VideoRecorder
 from taskcond.tasks.free import STARTS, FreeTask, RandomStart, final_predicates
@@ -63,7 +63,7 @@ class EpisodeResult:
         raised: primitives raised by Alg. 1.
         planner: :data:`PLANNERS` entry used.
         plan_seconds: wall-clock time of the planner (conditions it had to fetch included).
-        repair: the planner's repair (:meth:`~taskcond.execution.planner.Repair.to_dict`), or None
+        repair: the planner's repair (:meth:`~taskcond.execution.planner.PlanRepair.to_dict`), or None
             (``planner="none"``, no conditions, or the planner could not get a condition).
         goal: the goal predicates (the suite task's post-conditions; a free instruction's given goal, or
             else :func:`~taskcond.execution.planner.goal_of` of its plan before repair).
@@ -124,7 +124,7 @@ def run_episode(
     on_event: Callable[[Event], None] | None = None,
     config: ExecutionConfig | None = None,
     planner: str = "conditions",
-    on_plan: Callable[[Repair | None, tuple[Predicate, ...]], None] | None = None,
+    on_plan: Callable[[PlanRepair | None, tuple[Predicate, ...]], None] | None = None,
     start_state: str = "task",
     goal: tuple[Predicate, ...] | None = None,
 ) -> EpisodeResult:
@@ -152,7 +152,7 @@ def run_episode(
     else:
         env = make(plan.task_id, gui=gui)
     recorder = VideoRecorder(video) if video is not None else None
-    fixed: Repair | None = None
+    fixed: PlanRepair | None = None
     result = None
     try:
         env.reset(seed=seed)

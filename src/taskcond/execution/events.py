@@ -16,7 +16,7 @@ import numpy as np
 from taskcond.conditions import Predicate, TaskCondition
 from taskcond.execution.skills import Skill
 from taskcond.execution.world import Touch
-from taskcond.grounding import Repair
+from taskcond.grounding import ConditionRepair
 
 
 @dataclass(frozen=True)
@@ -80,7 +80,7 @@ class EventLog:
     def step(self, task: str) -> None:
         self.emit("step", task, 0, f"step: {task}")
 
-    def repair(self, task: str, depth: int, repairs: Sequence[Repair]) -> None:
+    def repair(self, task: str, depth: int, repairs: Sequence[ConditionRepair]) -> None:
         self.emit(
             "repair",
             task,

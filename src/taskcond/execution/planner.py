@@ -98,7 +98,7 @@ class Change:
 
 
 @dataclass(frozen=True)
-class Repair:
+class PlanRepair:
     """What :func:`repair` made of a plan.
 
     Attributes:
@@ -279,7 +279,7 @@ def repair(
     conditions: Conditions,
     affords: Affords | None = None,
     max_changes: int = MAX_CHANGES,
-) -> Repair:
+) -> PlanRepair:
     """Check ``steps`` against the start state with the task conditions and repair it (module doc).
 
     Args:
@@ -311,7 +311,7 @@ def repair(
                     f"'{plan[flaw.index]}' needs '{flaw.pred}', and the only primitive that achieves it, "
                     f"'{achiever}', cannot be done here: {refused}"
                 )
-                return Repair(tuple(steps), tuple(plan), tuple(changes), (), impossible)
+                return PlanRepair(tuple(steps), tuple(plan), tuple(changes), (), impossible)
         best = _best_fix(plan, flaw, achiever, model)
         if best is None:
             given_up.add((plan[flaw.index], flaw.pred))
@@ -319,7 +319,7 @@ def repair(
         plan, change = best
         changes.append(change)
     left = [f"'{f.pred}' for '{plan[f.index]}'" for f in model.flaws(plan)]
-    return Repair(tuple(steps), tuple(plan), tuple(changes), tuple(left))
+    return PlanRepair(tuple(steps), tuple(plan), tuple(changes), tuple(left))
 
 
 def _achiever(flaw: _Flaw) -> str | None:
@@ -463,7 +463,7 @@ __all__ = [
     "Affords",
     "Change",
     "Conditions",
-    "Repair",
+    "PlanRepair",
     "about_gripper_place",
     "apply",
     "effects",
