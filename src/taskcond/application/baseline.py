@@ -7,14 +7,14 @@ from pathlib import Path
 from typing import Any
 
 from taskcond.application.episode import EpisodeResult
+from taskcond.application.kinds import EvalMethod
 from taskcond.application.plans import RunPlan
+from taskcond.execution.failures import FailureKind
 from taskcond.sim.recording import VideoRecorder
 from taskcond.tasks.free import final_predicates
 from taskcond.tasks.registry import make
 
-IMAGE_IL = "image-il"
-"""The paper's image-based imitation-learning baseline (:mod:`taskcond.il`): a method of evaluations, not of
-the executor."""
+IMAGE_IL = EvalMethod.IMAGE_IL
 
 
 def load_policy(directory: Path) -> Any:
@@ -61,7 +61,7 @@ def run_policy_episode(plan: RunPlan, seed: int, policy: Any, video: Path | None
         env.close()
     failure, reason = run.failure, run.detail or run.failure
     if failure is None and not success:
-        failure = "not_succeeded"
+        failure = FailureKind.NOT_SUCCEEDED
         reason = (
             f"the goal does not hold: {', '.join(missing)}"
             if missing

@@ -4,13 +4,15 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import replace
 
 import numpy as np
 
-from taskcond.execution.executor import METHODS, ConditionSource, Method
+from taskcond.execution.executor import METHODS, ConditionSource, SourceKind
 from taskcond.execution.skills import SkillLibrary
 from taskcond.execution.sources import EnvConditions, GroundedConditions, LLMConditions
+from taskcond.generator import ConditionGenerator
 from taskcond.primitives import parse_task
 from taskcond.tasks.registry import get_task
 
@@ -58,29 +60,44 @@ def novel_primitive_source(source: ConditionSource, task_id: str, seed: int) -> 
     return source.leaving_out(primitive, seed), primitive
 
 
-def make_source(
-    method: Method,
-    library: SkillLibrary,
-    llm: str | None = None,
-    cache: bool = True,
-    threads: int | None = None,
-) -> ConditionSource | None:
-    """The condition source of ``method``: None (DMP only), FromEnv, the LLM of ``llm`` (the ``--llm``
-    spec; default: $TASKCOND_LLM, the config file, else embedded; an embedded model on ``threads`` CPU
-    threads, None: every core), or that LLM grounded in the library's demonstrations (``llm+demo``)."""
-    if method not in METHODS:
-        raise ValueError(f"unknown method {method!r}; valid: {', '.join(METHODS)}")
-    if method == "none":
-        return None
-    if method == "env":
-        return EnvConditions(library)
-    from taskcond.generator import ConditionGenerator
+def _generator(llm: str | None, cache: bool, threads: int | None) -> ConditionGenerator:
+    """The condition generator of the ``--llm`` spec ``llm`` (default: $TASKCOND_LLM, the config file, else
+    embedded; an embedded model on ``threads`` CPU threads, None: every core), its answers cached unless
+    ``cache`` is off."""
     from taskcond.llm.config import LLMConfig, make_backend
 
     config = replace(LLMConfig.load(llm), threads=threads)
     if not cache:
         config = replace(config, cache=False)
-    generator = ConditionGenerator(make_backend(config))
-    if method == "llm+demo":
-        return GroundedConditions(generator, library)
-    return LLMConditions(generator)
+    return ConditionGenerator(make_backend(config))
+
+
+SourceFactory = Callable[[SkillLibrary, str | None, bool, int | None], ConditionSource | None]
+"""Builds a condition source from the skill library, the ``--llm`` spec, whether answers are cached, and
+the embedded model's CPU threads."""
+
+SOURCES: dict[SourceKind, SourceFactory] = {
+    SourceKind.LLM: lambda library, llm, cache, threads: LLMConditions(_generator(llm, cache, threads)),
+    SourceKind.LLM_DEMO: lambda library, llm, cache, threads: GroundedConditions(
+        _generator(llm, cache, threads), library
+    ),
+    SourceKind.ENV: lambda library, llm, cache, threads: EnvConditions(library),
+    SourceKind.NONE: lambda library, llm, cache, threads: None,
+}
+"""The one registry from a condition source to its factory."""
+
+
+def make_source(
+    method: SourceKind,
+    library: SkillLibrary,
+    llm: str | None = None,
+    cache: bool = True,
+    threads: int | None = None,
+) -> ConditionSource | None:
+    """The condition source of ``method`` (:data:`SOURCES`): None (DMP only), FromEnv, the LLM of ``llm``
+    (the ``--llm`` spec; default: $TASKCOND_LLM, the config file, else embedded; an embedded model on
+    ``threads`` CPU threads, None: every core), or that LLM grounded in the library's demonstrations
+    (``llm+demo``)."""
+    if method not in METHODS:
+        raise ValueError(f"unknown method {method!r}; valid: {', '.join(METHODS)}")
+    return SOURCES[SourceKind(method)](library, llm, cache, threads)

@@ -18,12 +18,14 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
+from taskcond.application.kinds import Planner
 from taskcond.application.plans import RunPlan
 from taskcond.conditions import Predicate, TaskCondition
 from taskcond.envs.kitchen import KitchenEnv
 from taskcond.execution.config import ExecutionConfig
 from taskcond.execution.events import Event
-from taskcond.execution.executor import ConditionSource, Executor, Method
+from taskcond.execution.executor import ConditionSource, Executor, SourceKind
+from taskcond.execution.failures import FailureKind
 from taskcond.execution.planner import PlanRepair, goal_of, repair
 from taskcond.execution.skills import SkillLibrary
 from taskcond.sim.recording import VideoRecorder
@@ -31,9 +33,8 @@ from taskcond.tasks.free import STARTS, FreeTask, RandomStart, final_predicates
 from taskcond.tasks.registry import get_task, make
 from taskcond.worlds.kitchen import KitchenWorld
 
-PLANNERS = ("conditions", "none")
-"""``conditions``: the look-ahead planner repairs the plan before execution (beyond the paper); ``none``:
-the plan runs as given, Alg. 1 alone satisfies pre-conditions (the paper's behaviour)."""
+PLANNERS: tuple[Planner, ...] = tuple(Planner)
+"""Every planner choice."""
 
 
 DEFAULT_NOISE = 0.005
@@ -114,7 +115,7 @@ class EpisodeResult:
 
 def run_episode(
     plan: RunPlan,
-    method: Method,
+    method: SourceKind,
     seed: int,
     library: SkillLibrary,
     source: ConditionSource | None,
@@ -190,11 +191,11 @@ def run_episode(
         env.close()
     if result is None:
         assert fixed is not None and fixed.impossible is not None
-        failure, reason = "impossible", fixed.impossible
+        failure, reason = FailureKind.IMPOSSIBLE, fixed.impossible
     else:
         failure, reason = result.failure_kind, result.failure
     if failure is None and not success:
-        failure = "not_succeeded"
+        failure = FailureKind.NOT_SUCCEEDED
         reason = (
             f"the goal does not hold: {', '.join(missing)}"
             if missing

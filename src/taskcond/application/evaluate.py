@@ -16,12 +16,11 @@ from typing import Any
 
 import numpy as np
 
-from taskcond.application.baseline import IMAGE_IL
 from taskcond.application.episode import DEFAULT_NOISE
+from taskcond.application.kinds import EvalMethod
 from taskcond.application.ray_backend import run_on_ray
 from taskcond.application.workers import WorkerArgs, init_worker, llm_threads, run_initialized
 from taskcond.execution.config import ExecutionConfig
-from taskcond.execution.executor import METHODS
 from taskcond.results import (
     Job,
     ResultsFile,
@@ -33,9 +32,8 @@ from taskcond.results import (
 )
 from taskcond.tasks.registry import list_tasks, primitive_task_ids
 
-EVAL_METHODS: tuple[str, ...] = (*METHODS, IMAGE_IL)
-"""Methods an evaluation runs: the executor's (:data:`~taskcond.execution.executor.METHODS`) and the
-baseline."""
+EVAL_METHODS: tuple[EvalMethod, ...] = tuple(EvalMethod)
+"""Methods an evaluation runs: the executor's condition sources and the baseline."""
 
 
 # ------------------------------------------------------------------------------------------ evaluation

@@ -13,7 +13,8 @@ from taskcond.application.baseline import IMAGE_IL, load_policy, run_policy_epis
 from taskcond.application.condition_sources import make_source, novel_primitive_source
 from taskcond.application.episode import run_episode
 from taskcond.application.plans import instruction_plan, llm_decomposer, plan_run
-from taskcond.execution.executor import ConditionSource, Method
+from taskcond.execution.executor import ConditionSource, SourceKind
+from taskcond.execution.failures import FailureKind
 from taskcond.execution.skills import SkillLibrary
 from taskcond.results import (
     Job,
@@ -87,7 +88,7 @@ def run_initialized(job: Job) -> dict[str, Any]:
     from taskcond.decompose import DecompositionError
 
     sources: dict[str, ConditionSource | None] = _WORKER["sources"]
-    method: Method = job.method  # type: ignore[assignment]
+    method: SourceKind = job.method  # type: ignore[assignment]
     instruction = _WORKER["instructions"].get(job.task)
     try:
         if job.method == IMAGE_IL:
@@ -143,7 +144,7 @@ def unplanned(job: Job, instruction: Any, reason: str, planner: str, start: str)
         "method": job.method,
         "seed": job.seed,
         "success": False,
-        "failure": "decomposition",
+        "failure": FailureKind.DECOMPOSITION,
         "reason": reason,
         "steps": [],
         "planner": planner,

@@ -22,6 +22,7 @@ from taskcond.cli.common import (
     _sim_import,
     fail,
 )
+from taskcond.execution.failures import FailureKind
 from taskcond.llm.base import LLMError
 
 
@@ -150,7 +151,7 @@ def run(
         ),
         encoding="utf-8",
     )
-    if result.failure == "impossible":
+    if result.failure == FailureKind.IMPOSSIBLE:
         fail(f"cannot do {plan.label!r}: {result.reason}; nothing moved (trace: {trace_path})")
     outcome = "succeeded" if result.success else f"FAILED ({result.reason})"
     typer.echo(

@@ -19,7 +19,7 @@ from scipy.spatial.transform import Rotation, Slerp
 from taskcond.dmp import DMPParameters, rollout
 from taskcond.execution.config import ExecutionConfig, Hand
 from taskcond.execution.events import EventLog
-from taskcond.execution.failures import ExecutionError
+from taskcond.execution.failures import ExecutionError, FailureKind
 from taskcond.execution.skills import (
     Segment,
     Skill,
@@ -189,25 +189,25 @@ class Approach:
         target = self.world.locate(target_name, obs) if target_name is not None else None
         if target_name is not None and target is None:
             raise ExecutionError(
-                f"{target_name!r} is not perceived; cannot aim {task!r} at it", "not_perceived"
+                f"{target_name!r} is not perceived; cannot aim {task!r} at it", FailureKind.NOT_PERCEIVED
             )
         parsed = parse_task(task)
         grasp = parsed.primitive.id == "grasp"
         if grasp and target_name in obs.lying:
             raise ExecutionError(
                 f"{target_name!r} fell over; no grasp skill holds it lying (each is demonstrated upright)",
-                "fallen",
+                FailureKind.FALLEN,
             )
         here, here_q = self.world.ee_pose()
         try:
             skill = self.library.lookup(task, here - target if target is not None else here, here_q)
         except SkillError as exc:
-            raise ExecutionError(str(exc), "no_skill") from None
+            raise ExecutionError(str(exc), FailureKind.NO_SKILL) from None
         if skill.arms > len(self.world.arms):
             raise ExecutionError(
                 f"skill {skill.task_id} of {task!r} moves {skill.arms} arms; this robot has "
                 f"{len(self.world.arms)}",
-                "no_skill",
+                FailureKind.NO_SKILL,
             )
         carry = parsed.primitive.id in CARRIES and obs.grasped() == parsed.objects[0]
         far = (
@@ -423,7 +423,7 @@ class Approach:
         self._last = (position, orientation, gripper)
         reason = self.world.step(position, orientation, gripper)
         if reason is not None:
-            raise ExecutionError(f"simulation failed: {reason}", "simulation")
+            raise ExecutionError(f"simulation failed: {reason}", FailureKind.SIMULATION)
 
 
 WAY_SAMPLES = 30

@@ -5,6 +5,8 @@ in a scene), :class:`RandomStart` (a suite task from a random start state, :func
 
 from __future__ import annotations
 
+from enum import StrEnum
+
 import numpy as np
 import pybullet as p
 
@@ -30,10 +32,18 @@ kitchen of the cloth tasks (:func:`taskcond.sim.scene.dual_arm_config`: the Kino
 the free objects that lie near the cloth)."""
 
 
-STARTS = ("task", "random")
-"""Start states of an episode: ``task``, the task's own (a free instruction: the scene's reset, free objects
-near their nominal spots, containers closed, arms home); ``random``, :func:`random_start` (a suite task:
-:class:`RandomStart`)."""
+class StartMode(StrEnum):
+    """Where an episode starts (``--start``)."""
+
+    TASK = "task"
+    """The task's own start (a free instruction: the scene's reset, free objects near their nominal spots,
+    containers closed, arms home)."""
+    RANDOM = "random"
+    """:func:`random_start` (a suite task: :class:`RandomStart`)."""
+
+
+STARTS: tuple[StartMode, ...] = tuple(StartMode)
+"""Every start mode."""
 
 RANDOM_AREA = ((0.22, 0.55), (-0.45, 0.35))
 """World x and y ranges (m) of the table area where :func:`random_start` places free objects: in front of
