@@ -6,10 +6,9 @@ import time
 from pathlib import Path
 from typing import Any
 
-from taskcond.application.episode import EpisodeResult
+from taskcond.application.episode import EpisodeResult, judged
 from taskcond.application.kinds import EvalMethod
 from taskcond.application.plans import RunPlan
-from taskcond.execution.failures import FailureKind
 from taskcond.sim.recording import VideoRecorder
 from taskcond.tasks.free import final_predicates
 from taskcond.tasks.registry import make
@@ -59,21 +58,14 @@ def run_policy_episode(plan: RunPlan, seed: int, policy: Any, video: Path | None
         if recorder is not None:
             recorder.close()
         env.close()
-    failure, reason = run.failure, run.detail or run.failure
-    if failure is None and not success:
-        failure = FailureKind.NOT_SUCCEEDED
-        reason = (
-            f"the goal does not hold: {', '.join(missing)}"
-            if missing
-            else "the run completed but the task's success check failed"
-        )
+    failure, reason = judged(run.failure, run.detail or run.failure, success, missing)
     return EpisodeResult(
         task=plan.label,
         method=IMAGE_IL,
         seed=seed,
         success=success,
-        failure=None if success else failure,
-        reason=None if success else reason,
+        failure=failure,
+        reason=reason,
         steps=run.steps,
         sim_seconds=round(sim_seconds, 3),
         wall_seconds=round(time.perf_counter() - start, 3),

@@ -24,7 +24,7 @@ from taskcond.conditions import Predicate, TaskCondition
 from taskcond.envs.kitchen import KitchenEnv
 from taskcond.execution.config import ExecutionConfig
 from taskcond.execution.events import Event
-from taskcond.execution.executor import ConditionSource, Executor, SourceKind
+from taskcond.execution.executor import ConditionSource, ExecutionResult, Executor, SourceKind
 from taskcond.execution.failures import FailureKind
 from taskcond.execution.planner import PlanRepair, goal_of, repair
 from taskcond.execution.skills import SkillLibrary
@@ -139,33 +139,15 @@ def run_episode(
     Raises:
         ValueError: an unknown planner or start; a goal given for a suite task.
     """
-    if planner not in PLANNERS:
-        raise ValueError(f"unknown planner {planner!r}; valid: {', '.join(PLANNERS)}")
-    if start_state not in STARTS:
-        raise ValueError(f"unknown start {start_state!r}; valid: {', '.join(STARTS)}")
-    if goal is not None and plan.task_id is not None:
-        raise ValueError(f"suite task {plan.task_id} has its own success check; a goal is for instructions")
+    _check(plan, planner, start_state, goal)
     start = time.perf_counter()
-    if plan.task_id is None:
-        env = KitchenEnv(FreeTask(plan.label, plan.steps, plan.scene, start_state), gui=gui)
-    elif start_state == "random":
-        env = KitchenEnv(RandomStart(get_task(plan.task_id)), gui=gui)
-    else:
-        env = make(plan.task_id, gui=gui)
+    env = _environment(plan, start_state, gui)
     recorder = VideoRecorder(video) if video is not None else None
-    fixed: PlanRepair | None = None
-    result = None
     try:
         env.reset(seed=seed)
         world = KitchenWorld(env, noise_sigma=noise, seed=seed, recorder=recorder)
         conditions = _memo(source) if source is not None else None
-        planning = time.perf_counter()
-        if conditions is not None and planner != "none":
-            try:
-                fixed = repair(plan.steps, world.observe().predicates, conditions, world.affords)
-            except (ValueError, RuntimeError, OSError):
-                fixed = None  # a condition the source cannot give: the executor reports it on its step
-        planning = time.perf_counter() - planning
+        fixed, planning = _repaired(plan, world, conditions, planner)
         derived = _goal(plan, env, conditions)
         given = goal is not None
         plan_goal = derived if given else ()
@@ -173,27 +155,74 @@ def run_episode(
         if on_plan is not None:
             on_plan(fixed, goal)
         steps = plan.steps if fixed is None else fixed.steps
+        result = None
         if fixed is None or fixed.impossible is None:
-            executor = Executor(world, library, method, source, config, on_event)
-            result = executor.run(steps)
+            result = Executor(world, library, method, source, config, on_event).run(steps)
         missing = [str(q) for q in goal if not env.truth.holds(q)]
-        plan_goal_held = all(map(env.truth.holds, plan_goal)) if given else None
         if plan.task_id is None:
             success = result is not None and result.failure is None and not missing
         else:
             success = bool(env.task.success(env))
-        final = final_predicates(env)
-        sim_seconds = world.time
-        env_seconds = world.env_seconds
+        outcome = _Outcome(
+            steps=steps,
+            fixed=fixed,
+            result=result,
+            planning=planning,
+            goal=goal,
+            plan_goal=plan_goal,
+            missing=missing,
+            plan_goal_held=all(map(env.truth.holds, plan_goal)) if given else None,
+            success=success,
+            final=final_predicates(env),
+            sim_seconds=world.time,
+            env_seconds=world.env_seconds,
+        )
     finally:
         if recorder is not None:
             recorder.close()
         env.close()
-    if result is None:
-        assert fixed is not None and fixed.impossible is not None
-        failure, reason = FailureKind.IMPOSSIBLE, fixed.impossible
-    else:
-        failure, reason = result.failure_kind, result.failure
+    return outcome.episode(plan.label, method, seed, planner, start_state, time.perf_counter() - start)
+
+
+def _check(plan: RunPlan, planner: str, start_state: str, goal: tuple[Predicate, ...] | None) -> None:
+    """Raises ValueError for an unknown planner or start, or a goal given for a suite task."""
+    if planner not in PLANNERS:
+        raise ValueError(f"unknown planner {planner!r}; valid: {', '.join(PLANNERS)}")
+    if start_state not in STARTS:
+        raise ValueError(f"unknown start {start_state!r}; valid: {', '.join(STARTS)}")
+    if goal is not None and plan.task_id is not None:
+        raise ValueError(f"suite task {plan.task_id} has its own success check; a goal is for instructions")
+
+
+def _environment(plan: RunPlan, start_state: str, gui: bool) -> KitchenEnv:
+    """The environment of the plan's task (a free instruction's :class:`FreeTask`) from ``start_state``."""
+    if plan.task_id is None:
+        return KitchenEnv(FreeTask(plan.label, plan.steps, plan.scene, start_state), gui=gui)
+    if start_state == "random":
+        return KitchenEnv(RandomStart(get_task(plan.task_id)), gui=gui)
+    return make(plan.task_id, gui=gui)
+
+
+def _repaired(
+    plan: RunPlan, world: KitchenWorld, conditions: Callable[[str], TaskCondition] | None, planner: str
+) -> tuple[PlanRepair | None, float]:
+    """The planner's repair of the plan's steps against the world's start (None without conditions, with
+    ``planner="none"``, or when a condition cannot be had), and the seconds it took."""
+    planning = time.perf_counter()
+    fixed = None
+    if conditions is not None and planner != "none":
+        try:
+            fixed = repair(plan.steps, world.observe().predicates, conditions, world.affords)
+        except (ValueError, RuntimeError, OSError):
+            fixed = None  # a condition the source cannot give: the executor reports it on its step
+    return fixed, time.perf_counter() - planning
+
+
+def judged(
+    failure: FailureKind | str | None, reason: str | None, success: bool, missing: list[str]
+) -> tuple[FailureKind | str | None, str | None]:
+    """An episode's failure kind and reason: the run's own, else ``not_succeeded`` when the run completed
+    but the check failed (naming the goal predicates ``missing``), else none when it succeeded."""
     if failure is None and not success:
         failure = FailureKind.NOT_SUCCEEDED
         reason = (
@@ -201,31 +230,60 @@ def run_episode(
             if missing
             else "the run completed but the task's success check failed"
         )
-    return EpisodeResult(
-        task=plan.label,
-        method=method,
-        seed=seed,
-        success=success,
-        failure=None if success else failure,
-        reason=None if success else reason,
-        steps=list(steps),
-        sim_seconds=round(sim_seconds, 3),
-        wall_seconds=round(time.perf_counter() - start, 3),
-        env_seconds=round(env_seconds, 3),
-        adjustments=0 if result is None else result.adjustments,
-        raised=0 if result is None else result.raised,
-        planner=planner,
-        plan_seconds=round(planning, 4),
-        repair=None if fixed is None else fixed.to_dict(),
-        goal=[str(q) for q in goal],
-        goal_missing=missing,
-        plan_goal=[str(q) for q in plan_goal],
-        plan_goal_held=plan_goal_held,
-        start=start_state,
-        final_predicates=final,
-        events=[] if result is None else [e.to_dict() for e in result.events],
-        conditions={} if result is None else {k: v.to_dict() for k, v in result.conditions.items()},
-    )
+    return (None, None) if success else (failure, reason)
+
+
+@dataclass
+class _Outcome:
+    """What an episode's run left, before it is written up as an :class:`EpisodeResult`."""
+
+    steps: tuple[str, ...]
+    fixed: PlanRepair | None
+    result: ExecutionResult | None
+    planning: float
+    goal: tuple[Predicate, ...]
+    plan_goal: tuple[Predicate, ...]
+    missing: list[str]
+    plan_goal_held: bool | None
+    success: bool
+    final: list[str]
+    sim_seconds: float
+    env_seconds: float
+
+    def episode(
+        self, label: str, method: str, seed: int, planner: str, start: str, wall_seconds: float
+    ) -> EpisodeResult:
+        result, fixed = self.result, self.fixed
+        if result is None:
+            assert fixed is not None and fixed.impossible is not None
+            failure, reason = judged(FailureKind.IMPOSSIBLE, fixed.impossible, self.success, self.missing)
+        else:
+            failure, reason = judged(result.failure_kind, result.failure, self.success, self.missing)
+        return EpisodeResult(
+            task=label,
+            method=method,
+            seed=seed,
+            success=self.success,
+            failure=failure,
+            reason=reason,
+            steps=list(self.steps),
+            sim_seconds=round(self.sim_seconds, 3),
+            wall_seconds=round(wall_seconds, 3),
+            env_seconds=round(self.env_seconds, 3),
+            adjustments=0 if result is None else result.adjustments,
+            raised=0 if result is None else result.raised,
+            planner=planner,
+            plan_seconds=round(self.planning, 4),
+            repair=None if fixed is None else fixed.to_dict(),
+            goal=[str(q) for q in self.goal],
+            goal_missing=self.missing,
+            plan_goal=[str(q) for q in self.plan_goal],
+            plan_goal_held=self.plan_goal_held,
+            start=start,
+            final_predicates=self.final,
+            events=[] if result is None else [e.to_dict() for e in result.events],
+            conditions={} if result is None else {k: v.to_dict() for k, v in result.conditions.items()},
+        )
 
 
 def _memo(source: ConditionSource) -> Callable[[str], TaskCondition]:

@@ -64,11 +64,8 @@ def run(
     from taskcond.application.episode import PLANNERS, run_episode
     from taskcond.application.evaluate import execution_config
     from taskcond.application.library import default_library_dir
-    from taskcond.application.plans import llm_decomposer, plan_run, refused_task
-    from taskcond.decompose import DecompositionError
     from taskcond.execution.executor import METHODS
     from taskcond.tasks.free import STARTS
-    from taskcond.worlds.kitchen import scene_objects
 
     if method not in METHODS:
         fail(f"--method {method!r}: use one of {', '.join(METHODS)}")
@@ -78,6 +75,51 @@ def run(
         fail(f"--start {start!r}: use one of {', '.join(STARTS)}")
     if video is not None and video.suffix.lower() not in (".mp4", ".gif"):
         fail(f"--video {video}: use a .mp4 or .gif file name")
+
+    plan = _resolve(spec, llm)
+    library = _library(skills)
+    try:
+        source = make_source(method, library, llm)  # type: ignore[arg-type]
+    except (LLMError, ValueError) as exc:
+        fail(str(exc))
+    where = "" if start == "task" else f"-{start}"
+    stem = Path("runs") / f"{_slug(plan.label)}-{method}{where}-{seed}"
+    video_path = None if no_video else (video or stem.with_suffix(".mp4"))
+    trace_path = trace or stem.with_suffix(".json")
+
+    config = execution_config(skills or default_library_dir(), noise, llm, planner=planner, start=start)
+    result = run_episode(
+        plan,
+        method,  # type: ignore[arg-type]
+        seed,
+        library,
+        source,
+        noise,
+        video_path,
+        gui,
+        _show,
+        planner=planner,
+        on_plan=_planned,
+        start_state=start,
+    )
+    _write_trace(trace_path, plan, config, result)
+    if result.failure == FailureKind.IMPOSSIBLE:
+        fail(f"cannot do {plan.label!r}: {result.reason}; nothing moved (trace: {trace_path})")
+    outcome = "succeeded" if result.success else f"FAILED ({result.reason})"
+    typer.echo(
+        f"{plan.label}: {outcome}; {result.sim_seconds:.1f} s simulated, {result.wall_seconds:.1f} s wall"
+    )
+    typer.echo(f"trace: {trace_path}" + (f"; video: {video_path}" if video_path else ""))
+    if not result.success:
+        raise typer.Exit(1)
+
+
+def _resolve(spec: str, llm: str | None):
+    """The plan of ``spec`` (:func:`~taskcond.application.plans.plan_run`, a free instruction decomposed by
+    the LLM of ``llm``), printed; a one-line error for what cannot be run."""
+    from taskcond.application.plans import llm_decomposer, plan_run, refused_task
+    from taskcond.decompose import DecompositionError
+    from taskcond.worlds.kitchen import scene_objects
 
     def announce(scene: str) -> None:
         typer.echo(f"decomposing the instruction with the LLM ({scene} scene) ...", err=True)
@@ -93,70 +135,42 @@ def run(
     typer.echo(f"task: {plan.label}" + (" (decomposed by the LLM)" if plan.decomposed else ""))
     for k, step in enumerate(plan.steps, start=1):
         typer.echo(f"  {k}. {step}")
-    library = _library(skills)
-    try:
-        source = make_source(method, library, llm)  # type: ignore[arg-type]
-    except (LLMError, ValueError) as exc:
-        fail(str(exc))
-    where = "" if start == "task" else f"-{start}"
-    stem = Path("runs") / f"{_slug(plan.label)}-{method}{where}-{seed}"
-    video_path = None if no_video else (video or stem.with_suffix(".mp4"))
-    trace_path = trace or stem.with_suffix(".json")
+    return plan
 
-    def show(event) -> None:
-        typer.echo(f"{event.time:7.2f}s {'  ' * event.depth}{event.message}")
 
-    def planned(repair, goal) -> None:
-        if repair is not None and repair.changes:
-            typer.echo("plan repaired by the planner:")
-            for k, step in enumerate(repair.steps, start=1):
-                typer.echo(f"  {k}. {step}")
-            for change in repair.changes:
-                typer.echo(f"  - {change}")
-        elif repair is not None and repair.impossible is None:
-            typer.echo("plan checked by the planner: no change")
-        for left in () if repair is None else repair.unresolved:
-            typer.echo(f"  (left to Alg. 1: {left})")
-        typer.echo(f"goal: {', '.join(map(str, goal)) or 'none (no predicate to check)'}")
+def _show(event) -> None:
+    """One event as a console line, indented by its depth."""
+    typer.echo(f"{event.time:7.2f}s {'  ' * event.depth}{event.message}")
 
-    config = execution_config(skills or default_library_dir(), noise, llm, planner=planner, start=start)
-    result = run_episode(
-        plan,
-        method,  # type: ignore[arg-type]
-        seed,
-        library,
-        source,
-        noise,
-        video_path,
-        gui,
-        show,
-        planner=planner,
-        on_plan=planned,
-        start_state=start,
-    )
-    trace_path.parent.mkdir(parents=True, exist_ok=True)
-    trace_path.write_text(
+
+def _planned(repair, goal) -> None:
+    """The planner's repair (or that it changed nothing, or what it left to Alg. 1) and the goal."""
+    if repair is not None and repair.changes:
+        typer.echo("plan repaired by the planner:")
+        for k, step in enumerate(repair.steps, start=1):
+            typer.echo(f"  {k}. {step}")
+        for change in repair.changes:
+            typer.echo(f"  - {change}")
+    elif repair is not None and repair.impossible is None:
+        typer.echo("plan checked by the planner: no change")
+    for left in () if repair is None else repair.unresolved:
+        typer.echo(f"  (left to Alg. 1: {left})")
+    typer.echo(f"goal: {', '.join(map(str, goal)) or 'none (no predicate to check)'}")
+
+
+def _write_trace(path: Path, plan, config, result) -> None:
+    """The episode's JSON trace: its plan, the run's configuration and digest, and the result."""
+    plan_fields = {
+        "label": plan.label,
+        "task_id": plan.task_id,
+        "steps": list(plan.steps),
+        "scene": plan.scene,
+    }
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(
         json.dumps(
-            {
-                "plan": {
-                    "label": plan.label,
-                    "task_id": plan.task_id,
-                    "steps": list(plan.steps),
-                    "scene": plan.scene,
-                }
-            }
-            | {"config": config.to_dict(), "digest": config.digest}
-            | asdict(result),
+            {"plan": plan_fields} | {"config": config.to_dict(), "digest": config.digest} | asdict(result),
             indent=1,
         ),
         encoding="utf-8",
     )
-    if result.failure == FailureKind.IMPOSSIBLE:
-        fail(f"cannot do {plan.label!r}: {result.reason}; nothing moved (trace: {trace_path})")
-    outcome = "succeeded" if result.success else f"FAILED ({result.reason})"
-    typer.echo(
-        f"{plan.label}: {outcome}; {result.sim_seconds:.1f} s simulated, {result.wall_seconds:.1f} s wall"
-    )
-    typer.echo(f"trace: {trace_path}" + (f"; video: {video_path}" if video_path else ""))
-    if not result.success:
-        raise typer.Exit(1)
