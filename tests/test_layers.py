@@ -33,6 +33,11 @@ does), and ``core`` above ``llm`` does not make the LLM layer a dependency of th
 FORBIDDEN_IN_CORE = ("pybullet",)
 """Third-party modules the executor core must not import."""
 
+SHORT = ("execution", "application", "cli", "worlds")
+"""Packages whose functions are at most :data:`LONGEST` lines, or say why on a ``# long:`` line above."""
+LONGEST = 60
+"""Most lines of a function, its signature and docstring included."""
+
 
 def _module_name(path: Path) -> str:
     parts = list(path.relative_to(ROOT.parent).with_suffix("").parts)
@@ -140,3 +145,19 @@ def test_core_knows_no_simulator():
         if d.split(".")[0] in FORBIDDEN_IN_CORE
     ]
     assert not wrong, wrong
+
+
+def test_functions_are_short_or_say_why():
+    long = []
+    for package in SHORT:
+        for path in (ROOT / package).rglob("*.py"):
+            lines = path.read_text(encoding="utf-8").splitlines()
+            for node in ast.walk(ast.parse("\n".join(lines))):
+                if not isinstance(node, ast.FunctionDef | ast.AsyncFunctionDef):
+                    continue
+                first = min([node.lineno, *(d.lineno for d in node.decorator_list)])
+                if node.end_lineno - node.lineno + 1 > LONGEST and not lines[first - 2].strip().startswith(
+                    "# long:"
+                ):
+                    long.append(f"{path.relative_to(ROOT)}:{node.lineno} {node.name}")
+    assert not long, f"functions over {LONGEST} lines without a '# long:' reason: {long}"

@@ -113,6 +113,7 @@ class EpisodeResult:
         return out
 
 
+# long: 14 parameters and their docstring; the body is the episode's one sequence of about 45 lines
 def run_episode(
     plan: RunPlan,
     method: SourceKind,

@@ -30,6 +30,7 @@ from taskcond.llm.base import LLMError
 from taskcond.primitives import PRIMITIVES, TaskNameError, parse_task
 
 
+# long: typer declares its 9 options in the signature
 def conditions(
     task: Annotated[str, typer.Argument(help='Primitive task name, e.g. "move bottle into box".')],
     as_json: JsonOption = False,
@@ -144,6 +145,7 @@ def tasks(as_json: JsonOption = False, primitives: PrimitivesOption = None) -> N
         typer.echo("\n(the PyBullet task suite needs the [sim] extra: pip install 'taskcond[sim]')")
 
 
+# long: typer declares its options in the signature; Table II's loop is evaluation.py's
 def eval_conditions(
     trials: Annotated[int, typer.Option("--trials", min=1, help="Trials per primitive and mode.")] = 5,
     as_json: JsonOption = False,

@@ -35,6 +35,7 @@ from taskcond.llm.base import LLMError
 from taskcond.primitives import TaskNameError
 
 
+# long: the resume/progress/crash loop the three eval commands share; next: application/evaluate.py
 def _run_episodes(
     jobs, out: Path, settings: ExecutionSettings, desc: str, instructions: Path | None = None
 ) -> tuple[list[dict], dict]:
@@ -296,6 +297,7 @@ def eval_command(kind: str):
     return command
 
 
+# long: typer declares its 14 options in the signature
 def eval_instructions(
     file: Annotated[
         Path | None,

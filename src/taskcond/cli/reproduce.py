@@ -76,6 +76,7 @@ def _reproduce_conditions(spec, trials, out: Path, llm: str | None, skills: Path
     return results.results(), config.to_dict() | {"digest": config.digest, "crashed": len(crashed)}
 
 
+# long: typer declares its options in the signature; the tables' loop is reproduce.py's
 def reproduce(
     table: Annotated[str, typer.Argument(help="table2, table3, table4 or all.")],
     out: Annotated[

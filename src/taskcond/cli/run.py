@@ -30,6 +30,7 @@ def _slug(text: str) -> str:
     return "-".join("".join(c if c.isalnum() else " " for c in text.lower()).split())[:60] or "run"
 
 
+# long: typer declares its 13 options in the signature
 def run(
     spec: Annotated[
         str,

@@ -64,6 +64,7 @@ def oracle(
         )
 
 
+# long: typer declares its options in the signature
 def learn(
     out: Annotated[
         Path | None, typer.Option("--out", help="Directory of the library (default: the user cache).")

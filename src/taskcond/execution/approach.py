@@ -182,8 +182,7 @@ class Approach:
         where :meth:`_back_off` left the hand; a retried open goes on from the lid where the hand is).
 
         Raises:
-            ExecutionError: the target is not perceived or lies on its side (a grasp), no skill fits, or
-                the skill moves more arms than the robot has.
+            ExecutionError: the target is unseen or lies (a grasp), no skill fits, or it needs more arms.
         """
         target_name = target_object(task)
         target = self.world.locate(target_name, obs) if target_name is not None else None
@@ -332,6 +331,7 @@ class Approach:
                 return np.array([*best, lift])
         return np.array([0.0, 0.0, lift])
 
+    # long: one search over the hand's sides; its two closures share the sampled way
     def _turn(self, skill: Skill, target_name: str, target: np.ndarray, obs: Observation, far: bool) -> float:
         """The side a grasp of the round object ``target_name`` (centre ``target`` (3,) m) comes from: the
         demonstration turned by 0, ±π/2 or π rad about the object's vertical axis (a round object is held
