@@ -29,14 +29,8 @@ from taskcond.execution.skills import (
     turned,
 )
 from taskcond.execution.world import Observation, World
-from taskcond.primitives import parse_task
+from taskcond.primitives import HandApproach, parse_task
 
-APPROACHED = ("grasp", "open", "close")
-"""The primitives that start with an empty hand at their target: carried to their demonstrated start
-first when the hand is far from it (:meth:`Approach._far`)."""
-CARRIES = ("move", "move_on_top", "move_into", "move_in_front")
-"""The primitives that carry the object they name: when it is held and the hand is far from their
-demonstrated start, it is carried there first, over what lies on the way (:func:`_carry_height`)."""
 CARRY_MARGIN = 0.03
 """Clearance (m) a carried object keeps above what it is carried over, and around it."""
 
@@ -208,9 +202,9 @@ class Approach:
                 f"{len(self.world.arms)}",
                 FailureKind.NO_SKILL,
             )
-        carry = parsed.primitive.id in CARRIES and obs.grasped() == parsed.objects[0]
+        carry = parsed.primitive.approach is HandApproach.CARRY and obs.grasped() == parsed.objects[0]
         far = (
-            ((parsed.primitive.id in APPROACHED and not retry) or carry)
+            ((parsed.primitive.approach is HandApproach.EMPTY_HAND and not retry) or carry)
             and target is not None
             and self._far(task, skill, here - target)
         )

@@ -82,11 +82,6 @@ from taskcond.execution.skills import (
 from taskcond.execution.world import Observation, Touch, World
 from taskcond.primitives import TaskNameError, parse_task, task_for_condition
 
-IDEMPOTENT = frozenset({"grasp", "release", "open", "close"})
-"""Primitives whose post-conditions say all they achieve (a grasp, an open box): when those already hold
-the primitive is skipped. A move's post-conditions (``mug above table``) may hold before it runs while its
-goal, a place, does not."""
-
 
 class SourceKind(StrEnum):
     """Where the executor's task conditions come from (``--method`` of ``taskcond run``)."""
@@ -490,8 +485,9 @@ class Executor(Approach):
 
 
 def _done_already(task: str, cond: TaskCondition, obs: Observation) -> bool:
-    """``task`` is an :data:`IDEMPOTENT` primitive whose post-conditions all hold in ``obs``."""
-    idempotent = parse_task(task).primitive.id in IDEMPOTENT
+    """``task`` is an idempotent primitive (:attr:`~taskcond.primitives.Primitive.idempotent`) whose
+    post-conditions all hold in ``obs``."""
+    idempotent = parse_task(task).primitive.idempotent
     return bool(idempotent and cond.post_conditions and not _missing(cond.post_conditions, obs))
 
 

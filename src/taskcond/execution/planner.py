@@ -10,8 +10,9 @@ information of the start (§III-A.2) as the state:
   the post-conditions of the steps before it. A predicate holds until a post-condition contradicts it
   (:func:`taskcond.conditions.contradictions`), or until a step places its subject anew (a move's
   ``bottle inside box`` ends the bottle's earlier relations as subject);
-* **drop** (:data:`DROPPABLE`): a grasp, release, open or close whose own effect (:func:`named_effects`)
-  holds in the start state and no earlier step has touched it, and whose other post-conditions hold before
+* **drop** (an idempotent primitive, :attr:`~taskcond.primitives.Primitive.idempotent`): a grasp,
+  release, open or close whose own effect (:func:`named_effects`) holds in the start state and no earlier
+  step has touched it, and whose other post-conditions hold before
   it (``gripper not grasping`` after an earlier ``close box``), does nothing;
 * **undone** (:func:`_undone`): an open or close that a later close or open of the same container undoes
   before any step between them needs it does nothing either ("close everything" planned by a small model
@@ -63,11 +64,6 @@ Conditions = Callable[[str], TaskCondition]
 """Task name → its task condition (the executor's condition source)."""
 Affords = Callable[[str, tuple[str, ...]], str | None]
 """Primitive id and objects → why the scene refuses them, or None (:meth:`World.affords`)."""
-
-DROPPABLE = frozenset({"grasp", "release", "open", "close"})
-"""Primitives whose post-conditions say all they achieve (the executor's ``IDEMPOTENT``): one whose effects
-already hold at the start is dropped. A move is never dropped: ``mug above table`` holds while the mug is
-held up, and the move that sets it down is still needed (LHT3); its goal, a place, is not a predicate."""
 
 MAX_CHANGES = 8
 """Most insertions and moves one repair makes."""
@@ -369,7 +365,7 @@ def _drops(plan: list[str], model: _Model) -> list[Change]:
     while i < len(plan):
         task = plan[i]
         parsed = parse_task(task)
-        if parsed.primitive.id not in DROPPABLE:
+        if not parsed.primitive.idempotent:
             i += 1
             continue
         cond = model.condition(task)
@@ -458,7 +454,6 @@ def goal_of(steps: Sequence[str], conditions: Conditions | None = None) -> tuple
 
 
 __all__ = [
-    "DROPPABLE",
     "MAX_CHANGES",
     "Affords",
     "Change",
