@@ -13,15 +13,10 @@ import argparse
 import time
 from pathlib import Path
 
-from taskcond.execution.runner import (
-    Job,
-    WorkerArgs,
-    default_library_dir,
-    execution_config,
-    llm_threads,
-    load_library,
-    run_jobs,
-)
+from taskcond.application.evaluate import execution_config, run_jobs
+from taskcond.application.library import default_library_dir, load_library
+from taskcond.application.workers import WorkerArgs, llm_threads
+from taskcond.results import Job
 
 
 def timed(jobs: list[Job], backend: str, workers: int, library_dir: Path) -> tuple[list[dict], float, float]:

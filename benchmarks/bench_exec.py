@@ -20,7 +20,10 @@ import cProfile
 import pstats
 import statistics
 
-from taskcond.execution.runner import load_library, make_source, plan_run, run_episode
+from taskcond.application.condition_sources import make_source
+from taskcond.application.episode import run_episode
+from taskcond.application.library import load_library
+from taskcond.application.plans import plan_run
 
 
 def profile_episode(task: str, method: str, seed: int, library, source) -> dict[str, float]:

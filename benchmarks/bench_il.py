@@ -23,11 +23,11 @@ def main() -> None:
     ap.add_argument("--act", type=int, default=20, help="policy calls timed (render + network)")
     args = ap.parse_args()
 
-    from taskcond.execution.kitchen import CONTEXTS, primitive_task_ids
+    from taskcond.application.demonstrations import CONTEXTS
     from taskcond.il.config import TrainSpec, data_dir, policy_dir
     from taskcond.il.dataset import DataSpec, collect, observe_image, observe_state
     from taskcond.il.train import TrainedPolicy, learn_policy
-    from taskcond.tasks.registry import make
+    from taskcond.tasks.registry import make, primitive_task_ids
 
     data, spec = DataSpec(), TrainSpec()
     directory = policy_dir(data, spec)

@@ -1,5 +1,5 @@
 """Evaluation workers asking the embedded model at the same time: every core's threads each, or the cores
-shared out among them (what :func:`taskcond.execution.runner.llm_threads` gives a worker).
+shared out among them (what :func:`taskcond.application.workers.llm_threads` gives a worker).
 
 Each of ``--workers`` spawned processes loads the model and generates the same uncached conditions (no
 response cache, no prefix states); the table gives the wall time until all are done, the median seconds

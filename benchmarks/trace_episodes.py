@@ -24,7 +24,10 @@ from collections import Counter
 from dataclasses import asdict
 from pathlib import Path
 
-from taskcond.execution.runner import DEFAULT_NOISE, load_library, make_source, plan_run, run_episode
+from taskcond.application.condition_sources import make_source
+from taskcond.application.episode import DEFAULT_NOISE, run_episode
+from taskcond.application.library import load_library
+from taskcond.application.plans import plan_run
 
 WALL_CLOCK = ("wall_seconds", "env_seconds")
 """Fields of an episode that measure the machine, not the behaviour."""

@@ -18,9 +18,9 @@ import numpy as np
 
 from taskcond.envs.kitchen import KitchenEnv
 from taskcond.execution.demofile import RecordedTrajectory
-from taskcond.execution.kitchen import FreeTask
 from taskcond.primitives import load_primitives
 from taskcond.sim.franka import top_down
+from taskcond.tasks.free import FreeTask
 from taskcond.tasks.motion_plan import Waypoint
 from taskcond.tasks.motions import CLOSED, plan
 

@@ -17,16 +17,17 @@ from taskcond.conditions import (
     SpatialRelation,
     TaskCondition,
 )
-from taskcond.dmp import rollout
-from taskcond.execution.collisions import CollisionMonitor, Landing, allowed_for_arms, landings, riders
-from taskcond.execution.decompose import (
+from taskcond.decompose import (
     DecompositionError,
     parse_plan,
     with_object_names,
     with_releases,
     without_carry_releases,
 )
-from taskcond.execution.executor import CARRY_MARGIN, _carry_height, _part_way, _support_below
+from taskcond.dmp import rollout
+from taskcond.execution.approach import CARRY_MARGIN, _carry_height, _support_below
+from taskcond.execution.collisions import CollisionMonitor, Landing, allowed_for_arms, landings, riders
+from taskcond.execution.executor import _part_way
 from taskcond.execution.skills import (
     HALF_TURN,
     Demonstration,

@@ -31,7 +31,7 @@ def test_the_checkpoint_joins_the_configuration_only_when_used():
 
 
 def test_without_the_extra_reproduce_shows_the_baseline_as_not_run_and_why(monkeypatch):
-    from taskcond.cli import _without_il
+    from taskcond.cli.reproduce import _without_il
     from taskcond.reproduce import build_cells, table_specs
 
     spec = table_specs()["table3"]

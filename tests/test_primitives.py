@@ -105,3 +105,25 @@ def test_condition_to_task_mapping_of_alg_1(condition, grasped, task):
     assert task_for_condition(parse_predicate(condition), grasped=grasped) == task
     if task is not None:
         parse_task(task)
+
+
+def test_every_primitive_is_declared_completely():
+    """A primitive is one declaration: what the executor, the planner and the grounding read of it is
+    there and consistent (its pattern names its objects; its target and carried objects are among them; a
+    carrying approach moves its first object; an idempotent primitive is one whose post-conditions are its
+    whole effect, never a move to a place)."""
+    from taskcond.primitives import LETTERS, PRIMITIVES, HandApproach
+
+    for p in PRIMITIVES.values():
+        letters = [w for w in p.pattern.split() if w in LETTERS]
+        assert letters == list(LETTERS[: p.n_objects]), p.id
+        assert p.target is None or p.target == -1 or 0 <= p.target < p.n_objects, p.id
+        assert all(0 <= m < p.n_objects for m in p.movable), p.id
+        assert isinstance(p.approach, HandApproach) and isinstance(p.idempotent, bool), p.id
+        if p.approach is HandApproach.CARRY:
+            assert 0 in p.movable and p.target is not None and not p.idempotent, p.id
+        if p.approach is HandApproach.EMPTY_HAND:
+            assert p.target == 0, p.id
+    carried = {p.id for p in PRIMITIVES.values() if p.approach is HandApproach.CARRY}
+    assert carried == {"move", "move_on_top", "move_into", "move_in_front"}
+    assert {p.id for p in PRIMITIVES.values() if p.idempotent} == {"grasp", "release", "open", "close"}

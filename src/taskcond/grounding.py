@@ -41,7 +41,7 @@ and that demonstration also shows what is true before and after the primitive: t
 The LLM's relevant objects and relations decide what matters, the demonstration only decides what is true:
 nothing is added about an object outside the relevant objects, and no relation is added that is not the
 counterpart of one the LLM gave, so the incidental relations of the paper's FromEnv (``bottle in front of
-box`` during ``move bottle into box``) stay out. Every change is a :class:`Repair` with its reason.
+box`` during ``move bottle into box``) stay out. Every change is a :class:`ConditionRepair` with its reason.
 
 This module knows no simulator: a :class:`DemoEvidence` is the predicate sets an
 :class:`~taskcond.sim.perception.EnvironmentInfo` gives at the demonstration's start and end.
@@ -144,7 +144,7 @@ class DemoEvidence:
 
 
 @dataclass(frozen=True)
-class Repair:
+class ConditionRepair:
     """One change grounding made to a condition.
 
     Attributes:
@@ -188,7 +188,7 @@ class Grounded:
 
     condition: TaskCondition
     original: TaskCondition
-    repairs: tuple[Repair, ...] = field(default=())
+    repairs: tuple[ConditionRepair, ...] = field(default=())
 
 
 def _state_of(moment: frozenset[Predicate], thing: str) -> Predicate | None:
@@ -262,7 +262,7 @@ class _Grounding:
         }
         self.relevant = list(cond.relevant_objects)
         self.collisions = list(cond.collisions)
-        self.repairs: list[Repair] = []
+        self.repairs: list[ConditionRepair] = []
 
     def unchanged(self, thing: str) -> bool:
         """Whether the demonstration shows a state of ``thing`` at both ends, the same one."""
@@ -283,11 +283,13 @@ class _Grounding:
         if pred in self.lists[where]:
             return
         self.lists[where].append(pred)
-        self.repairs.append(Repair("added", where, None, str(pred), reason))
+        self.repairs.append(ConditionRepair("added", where, None, str(pred), reason))
         for obj in pred.objects:
             if obj not in self.relevant:
                 self.relevant.append(obj)
-                self.repairs.append(Repair("added", "relevant objects", None, obj, f"'{pred}' names it"))
+                self.repairs.append(
+                    ConditionRepair("added", "relevant objects", None, obj, f"'{pred}' names it")
+                )
 
     # ------------------------------------------------------------------------------------------ rules
     def contradicted(self) -> None:
@@ -313,7 +315,7 @@ class _Grounding:
             actual = _state_of(moment, subject)
             if actual is None:
                 reason = f"the demonstration shows no open or closed state of {subject}"
-                self.repairs.append(Repair("removed", where, str(pred), None, reason))
+                self.repairs.append(ConditionRepair("removed", where, str(pred), None, reason))
             elif (
                 isinstance(pred, ContainerState)
                 and subject not in _entered(self.lists["pre"], self.lists["post"])
@@ -323,7 +325,7 @@ class _Grounding:
                     f"the demonstration shows '{actual}' throughout: nothing goes inside {subject} "
                     "and its state does not change, so the task neither needs nor changes it"
                 )
-                self.repairs.append(Repair("removed", where, str(pred), None, reason))
+                self.repairs.append(ConditionRepair("removed", where, str(pred), None, reason))
             else:
                 self._replace(where, pred, actual, f"the demonstration's {when} shows '{actual}'")
             return
@@ -338,20 +340,20 @@ class _Grounding:
             other_when = _MOMENT[other]
             reason = f"it holds at the demonstration's {other_when}, not its {when}"
             if pred in self.lists[other]:
-                self.repairs.append(Repair("removed", where, str(pred), None, reason))
+                self.repairs.append(ConditionRepair("removed", where, str(pred), None, reason))
             else:
                 self.lists[other].append(pred)
-                self.repairs.append(Repair("corrected", other, str(pred), str(pred), reason))
+                self.repairs.append(ConditionRepair("corrected", other, str(pred), str(pred), reason))
         else:
             reason = f"it holds at neither the start nor the end of the demonstration (its {when})"
-            self.repairs.append(Repair("removed", where, str(pred), None, reason))
+            self.repairs.append(ConditionRepair("removed", where, str(pred), None, reason))
 
     def _replace(self, where: str, old: Predicate, new: Predicate, reason: str) -> None:
         if new in self.lists[where]:
-            self.repairs.append(Repair("removed", where, str(old), None, reason))
+            self.repairs.append(ConditionRepair("removed", where, str(old), None, reason))
             return
         self.lists[where].append(new)
-        self.repairs.append(Repair("corrected", where, str(old), str(new), reason))
+        self.repairs.append(ConditionRepair("corrected", where, str(old), str(new), reason))
 
     def changes(self) -> None:
         """Rules 2 and 3: state changes of the gripper or a relevant container, and the gripper's state."""
@@ -416,7 +418,7 @@ class _Grounding:
                             ):
                                 self.lists["post"].remove(q)
                                 why = f"{reason} ('{pred}'), not also '{q}' (not seen at the end)"
-                                self.repairs.append(Repair("removed", "post", str(q), None, why))
+                                self.repairs.append(ConditionRepair("removed", "post", str(q), None, why))
                 elif twin in self.ev.end and twin not in self.ev.start:
                     reason = f"{gripper} holds {held}: the demonstration ends with '{twin}'"
                 else:
@@ -433,7 +435,9 @@ class _Grounding:
                 continue
             self.collisions.append(touch)
             self.repairs.append(
-                Repair("added", "collisions", None, str(touch), "they touch during the demonstration")
+                ConditionRepair(
+                    "added", "collisions", None, str(touch), "they touch during the demonstration"
+                )
             )
 
     def result(self) -> Grounded:
@@ -463,4 +467,4 @@ def ground(condition: TaskCondition, evidence: DemoEvidence) -> Grounded:
     return work.result()
 
 
-__all__ = ["DemoEvidence", "Grounded", "Repair", "ground"]
+__all__ = ["ConditionRepair", "DemoEvidence", "Grounded", "ground"]

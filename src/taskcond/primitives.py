@@ -11,6 +11,7 @@ import json
 import re
 import tomllib
 from dataclasses import dataclass
+from enum import StrEnum
 from pathlib import Path
 
 from taskcond.conditions import (
@@ -33,6 +34,19 @@ class TaskNameError(ValueError):
     """A task name that no primitive's pattern matches, with the valid patterns in its message."""
 
 
+class HandApproach(StrEnum):
+    """How the hand comes to a primitive (the executor's approach, :mod:`taskcond.execution.approach`)."""
+
+    EMPTY_HAND = "empty_hand"
+    """It starts with an empty hand at its target; a hand far from the demonstrated start is carried there
+    first (grasp, open, close)."""
+    CARRY = "carry"
+    """It carries the object it names: held and far from the demonstrated start, it is carried there first,
+    over what lies on the way (the moves)."""
+    IN_PLACE = "in_place"
+    """It starts where the hand is (release, tilt, fold, and a declared primitive unless it says)."""
+
+
 @dataclass(frozen=True)
 class Primitive:
     """One primitive task of the catalogue.
@@ -48,6 +62,10 @@ class Primitive:
             demonstrated displacement (release, tilt).
         movable: indices of the task objects the primitive carries or pushes (the scene must let them move).
         declared: declared by a user (:func:`register_primitive`) rather than one of the paper's ten.
+        approach: how the hand comes to the primitive (:class:`HandApproach`), read by the executor.
+        idempotent: repeating it is harmless, because its post-conditions say all it achieves (a grasp, an
+            open box): the executor skips it and the planner drops it when they already hold. A move's
+            post-conditions (``mug above table``) may hold before it runs while its goal, a place, does not.
     """
 
     id: str
@@ -58,6 +76,8 @@ class Primitive:
     target: int | None = 0
     movable: tuple[int, ...] = ()
     declared: bool = False
+    approach: HandApproach = HandApproach.IN_PLACE
+    idempotent: bool = False
 
     @property
     def verb(self) -> str:
@@ -95,6 +115,8 @@ PRIMITIVES: dict[str, Primitive] = {
             "grasp A",
             ("pick up A", "pick A up", "pick A", "grab A", "hold A up", "hold A"),
             movable=(0,),
+            approach=HandApproach.EMPTY_HAND,
+            idempotent=True,
         ),
         Primitive(
             "release",
@@ -103,9 +125,12 @@ PRIMITIVES: dict[str, Primitive] = {
             ("let go of A", "drop A", "put down A", "put A down"),
             target=None,
             movable=(0,),
+            idempotent=True,
         ),
-        Primitive("open", "Open", "open A"),
-        Primitive("close", "Close", "close A", ("shut A",)),
+        Primitive("open", "Open", "open A", approach=HandApproach.EMPTY_HAND, idempotent=True),
+        Primitive(
+            "close", "Close", "close A", ("shut A",), approach=HandApproach.EMPTY_HAND, idempotent=True
+        ),
         Primitive("tilt", "Tilt", "tilt A", ("pour A",), target=None, movable=(0,)),
         Primitive("fold", "Fold", "fold A"),
         Primitive(
@@ -121,6 +146,7 @@ PRIMITIVES: dict[str, Primitive] = {
             ),
             target=-1,
             movable=(0,),
+            approach=HandApproach.CARRY,
         ),
         Primitive(
             "move_on_top",
@@ -138,6 +164,7 @@ PRIMITIVES: dict[str, Primitive] = {
             2,
             target=1,
             movable=(0,),
+            approach=HandApproach.CARRY,
         ),
         Primitive(
             "move_into",
@@ -147,6 +174,7 @@ PRIMITIVES: dict[str, Primitive] = {
             2,
             target=1,
             movable=(0,),
+            approach=HandApproach.CARRY,
         ),
         Primitive(
             "move_in_front",
@@ -156,6 +184,7 @@ PRIMITIVES: dict[str, Primitive] = {
             2,
             target=1,
             movable=(0,),
+            approach=HandApproach.CARRY,
         ),
     )
 }
@@ -422,6 +451,7 @@ __all__ = [
     "LETTERS",
     "PRIMITIVES",
     "PRIMITIVES_ENV",
+    "HandApproach",
     "ParsedTask",
     "Primitive",
     "TaskNameError",

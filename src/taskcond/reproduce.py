@@ -7,7 +7,8 @@ not list is the paper's '-' (infeasible); a column listed under ``pending`` is a
 Adding a row, block or column is one entry here: once the runner knows a method, moving its column key
 from a block's ``pending`` to its ``methods`` makes ``taskcond reproduce`` run it, resume it and put it
 beside the paper's value. A block with ``novel_primitive`` (Table IV's third) runs its episodes with one
-primitive left out of the LLM's examples (:func:`taskcond.execution.runner.novel_primitive_source`).
+primitive left out of the LLM's examples
+(:func:`taskcond.application.condition_sources.novel_primitive_source`).
 
 Results go to ``DIR/tableN.jsonl`` through :class:`~taskcond.results.ResultsFile` (configuration
 recorded, resumable, crashed work retried; the novel-primitive episodes, another configuration, to
@@ -70,7 +71,8 @@ class Block:
             trial it has, once).
         notes: column key → how it is measured, printed under the block.
         novel_primitive: each episode leaves one primitive of its task out of the LLM's examples (its
-            records carry ``left_out``; see :func:`taskcond.execution.runner.novel_primitive_source`).
+            records carry ``left_out``; see
+            :func:`taskcond.application.condition_sources.novel_primitive_source`).
     """
 
     key: str
@@ -136,8 +138,7 @@ IL_NOTE = (
 
 
 def _primitive_rows() -> tuple[Row, ...]:
-    from taskcond.execution.kitchen import primitive_task_ids
-    from taskcond.tasks.registry import get_task
+    from taskcond.tasks.registry import get_task, primitive_task_ids
 
     ids = primitive_task_ids()
     return tuple(
@@ -616,7 +617,7 @@ def covers(condition: Any, reference: Any) -> bool:
 def fromenv_skills(library: Any, primitive: str) -> list[Any]:
     """The skills learned from the suite's own primitive tasks of ``primitive`` (not the long-horizon
     steps), in suite order."""
-    from taskcond.execution.kitchen import primitive_task_ids
+    from taskcond.tasks.registry import primitive_task_ids
 
     ids = primitive_task_ids()
     skills = [s for s in library.skills.values() if s.primitive == primitive and s.task_id in ids]

@@ -39,19 +39,19 @@ class RunConfig:
         generator: the generator's other settings (self-consistency samples, grammar use).
         noise: perception noise σ, metres (execution only).
         start: how episodes start: ``task`` (the suite task's own start state) or ``random`` (a drawn
-            start state, :func:`taskcond.execution.kitchen.random_start`).
+            start state, :func:`taskcond.tasks.free.random_start`).
         planner: plan repair before execution: ``conditions`` (the look-ahead planner,
             :mod:`taskcond.execution.planner`) or ``none`` (the paper's sequence as given).
         novel_primitive: each episode leaves one primitive of its long-horizon task out of the LLM's
             examples, drawn from the episode's seed (Table IV, "generalize to novel primitive tasks";
-            :func:`taskcond.execution.runner.novel_primitive_source`).
+            :func:`taskcond.application.condition_sources.novel_primitive_source`).
         skills: the skill library, ``<directory name>@<SHA-256 prefix of its files>`` (None when unused).
         instructions: the instructions file of ``taskcond eval instructions``, ``<file name>@<SHA-256
             prefix>`` (None otherwise).
         il: the image-based baseline's checkpoint (:mod:`taskcond.il`), ``<directory name>@<SHA-256 prefix
             of its files>``; None when the baseline does not run (then left out of :meth:`to_dict`, so the
             digests of configurations without it are those of earlier versions).
-        execution: the constants of Alg. 1 and Alg. 2 (:class:`~taskcond.execution.executor.ExecutionConfig`
+        execution: the constants of Alg. 1 and Alg. 2 (:class:`~taskcond.execution.config.ExecutionConfig`
             as a dict; empty for ``conditions``).
         code: ``git describe`` of the package's checkout (``-dirty+<diff hash>`` with local changes), else
             ``taskcond <package version>``.

@@ -11,6 +11,9 @@ from typer.testing import CliRunner
 
 pytest.importorskip("pybullet")
 
+from taskcond.application.demonstrations import learn_library
+from taskcond.application.episode import run_episode
+from taskcond.application.plans import RunPlan, llm_decomposer, plan_run
 from taskcond.cli import app
 from taskcond.conditions import (
     Collision,
@@ -22,11 +25,11 @@ from taskcond.conditions import (
 )
 from taskcond.envs.kitchen import KitchenEnv
 from taskcond.execution.executor import Executor
-from taskcond.execution.kitchen import FreeTask, KitchenWorld, learn_library
-from taskcond.execution.runner import RunPlan, llm_decomposer, plan_run, run_episode
 from taskcond.execution.sources import EnvConditions, GroundedConditions, LLMConditions
 from taskcond.generator import ConditionGenerator
+from taskcond.tasks.free import FreeTask
 from taskcond.tasks.registry import make
+from taskcond.worlds.kitchen import KitchenWorld
 
 pytestmark = pytest.mark.sim
 
@@ -362,10 +365,10 @@ def test_an_instruction_whose_roles_are_impossible_is_one_line_and_nothing_runs(
 def test_a_flat_cloth_is_located_at_its_resting_height_whatever_the_noise() -> None:
     """The cloth lying flat: its perceived centre's height is noise (σ = 1 cm here), so the world locates
     it at its resting height, the x and y still perceived; a cloth perceived taller than
-    :data:`~taskcond.execution.kitchen.FLAT` keeps its perceived centre."""
+    :data:`~taskcond.worlds.kitchen.FLAT` keeps its perceived centre."""
     from dataclasses import replace
 
-    from taskcond.execution.kitchen import FLAT
+    from taskcond.worlds.kitchen import FLAT
 
     env = make("fold-cloth")
     try:

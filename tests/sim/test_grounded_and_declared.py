@@ -12,10 +12,11 @@ from typer.testing import CliRunner
 
 pytest.importorskip("pybullet")
 
+from taskcond.application.demonstrations import learn_library
+from taskcond.application.episode import run_episode
+from taskcond.application.plans import plan_run
 from taskcond.cli import app
 from taskcond.conditions import TaskCondition, parse_predicate
-from taskcond.execution.kitchen import learn_library
-from taskcond.execution.runner import plan_run, run_episode
 from taskcond.execution.skills import SkillLibrary
 from taskcond.execution.sources import GroundedConditions, demonstration_evidence
 from taskcond.generator import ConditionGenerator

@@ -16,8 +16,9 @@ pytest.importorskip("jax", reason="needs the [il] extra")
 pytest.importorskip("equinox", reason="needs the [il] extra")
 pytest.importorskip("optax", reason="needs the [il] extra")
 
+from taskcond.application.baseline import run_policy_episode
+from taskcond.application.plans import plan_run
 from taskcond.cli import app
-from taskcond.execution.runner import plan_run, run_policy_episode
 from taskcond.il.config import NetSpec, TrainSpec, policy_dir
 from taskcond.il.dataset import CHUNK, IMAGE_SIZE, STATE_DIM, demonstrate
 from taskcond.il.train import PolicyError, TrainedPolicy, train

@@ -10,11 +10,12 @@ from typer.testing import CliRunner
 
 pytest.importorskip("pybullet")
 
+from taskcond.application.demonstrations import learn_library
+from taskcond.application.plans import plan_run
 from taskcond.cli import app
 from taskcond.conditions import ContainerState, GripperState
 from taskcond.envs.kitchen import KitchenEnv
-from taskcond.execution.kitchen import RandomStart, learn_library
-from taskcond.execution.runner import plan_run
+from taskcond.tasks.free import RandomStart
 from taskcond.tasks.registry import get_task
 
 pytestmark = pytest.mark.sim

@@ -8,8 +8,9 @@ import pytest
 
 pytest.importorskip("pybullet")
 
-from taskcond.execution.kitchen import learn_library
-from taskcond.execution.runner import plan_run, run_episode
+from taskcond.application.demonstrations import learn_library
+from taskcond.application.episode import run_episode
+from taskcond.application.plans import plan_run
 from taskcond.execution.sources import LLMConditions
 from taskcond.generator import ConditionGenerator
 

@@ -9,8 +9,8 @@ from typer.testing import CliRunner
 
 pytest.importorskip("pybullet")
 
+from taskcond.application.condition_sources import left_out_primitive, novel_primitive_source
 from taskcond.cli import app
-from taskcond.execution.runner import left_out_primitive, novel_primitive_source
 from taskcond.execution.skills import SkillLibrary
 from taskcond.execution.sources import EnvConditions, LLMConditions
 from taskcond.generator import ConditionGenerator

@@ -13,17 +13,15 @@ pytest.importorskip("pybullet")
 
 import pybullet
 
+from taskcond.application.demonstrations import learn_library
 from taskcond.conditions import ContainerState
 from taskcond.envs.kitchen import KitchenEnv
-from taskcond.execution.executor import BACK_OFF_HEIGHT, ExecutionConfig, Executor
-from taskcond.execution.kitchen import (
-    RANDOM_MIN_RADIUS,
-    FreeTask,
-    KitchenWorld,
-    learn_library,
-    random_start,
-)
+from taskcond.execution.approach import BACK_OFF_HEIGHT
+from taskcond.execution.config import ExecutionConfig
+from taskcond.execution.executor import Executor
 from taskcond.execution.sources import EnvConditions
+from taskcond.tasks.free import RANDOM_MIN_RADIUS, FreeTask, random_start
+from taskcond.worlds.kitchen import KitchenWorld
 
 pytestmark = pytest.mark.sim
 

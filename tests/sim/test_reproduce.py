@@ -10,10 +10,10 @@ from typer.testing import CliRunner
 
 pytest.importorskip("pybullet")
 
+from taskcond.application.demonstrations import learn_library
+from taskcond.application.evaluate import evaluate, execution_config
 from taskcond.cli import app
-from taskcond.execution.kitchen import learn_library
-from taskcond.execution.runner import Job, evaluate, execution_config
-from taskcond.results import ResultsFile
+from taskcond.results import Job, ResultsFile
 
 pytestmark = pytest.mark.sim
 runner = CliRunner()

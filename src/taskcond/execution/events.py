@@ -9,14 +9,48 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
+from enum import StrEnum
 from typing import Any
 
 import numpy as np
 
 from taskcond.conditions import Predicate, TaskCondition
+from taskcond.execution.failures import FailureKind
 from taskcond.execution.skills import Skill
 from taskcond.execution.world import Touch
-from taskcond.grounding import Repair
+from taskcond.grounding import ConditionRepair
+
+
+class EventKind(StrEnum):
+    """What an :class:`Event` reports."""
+
+    STEP = "step"
+    """A top-level primitive starts."""
+    REPAIR = "repair"
+    """What grounding in a demonstration changed in the LLM's condition (``repairs``: a list of ``{action,
+    where, before, after, reason}``)."""
+    CONDITION = "condition"
+    """The condition a primitive runs with."""
+    IGNORED = "ignored"
+    """Condition parts that cannot apply here."""
+    SKIP = "skip"
+    """An idempotent primitive's post-conditions already hold: skipped."""
+    RAISE = "raise"
+    """Alg. 1 raises a primitive for an unmet pre-condition."""
+    BACK_OFF = "back_off"
+    """The open hand rises before a grasp is tried again, or lets go of an object that slipped."""
+    SET_DOWN = "set_down"
+    """A held object is lowered onto its support before a release that Alg. 1 raised."""
+    PRIMITIVE = "primitive"
+    """A primitive's DMPs start."""
+    COLLISION = "collision"
+    """An unallowed collision, adjusted (Alg. 2)."""
+    POST = "post"
+    """Post-conditions met."""
+    POST_MISSING = "post_missing"
+    """Post-conditions missing after an attempt (``final``: the primitive is given up)."""
+    FAILURE = "failure"
+    """The run stopped (``reason``, ``failure_kind``)."""
 
 
 @dataclass(frozen=True)
@@ -25,13 +59,7 @@ class Event:
 
     Attributes:
         time: world time, s.
-        kind: ``step`` (a top-level primitive starts), ``repair`` (what grounding in a demonstration
-            changed in the LLM's condition, with ``repairs``: a list of ``{action, where, before, after,
-            reason}``), ``condition``, ``ignored`` (condition parts that
-            cannot apply here), ``skip`` (post-conditions already hold), ``raise`` (Alg. 1 raises a
-            primitive for an unmet pre-condition), ``primitive`` (a primitive's DMPs start),
-            ``collision`` (unallowed, adjusted), ``post`` (post-conditions met), ``post_missing``,
-            ``failure``.
+        kind: what it reports.
         task: the primitive task concerned.
         depth: recursion depth (0 = a step of the long-horizon task).
         message: human-readable line.
@@ -39,7 +67,7 @@ class Event:
     """
 
     time: float
-    kind: str
+    kind: EventKind
     task: str
     depth: int
     message: str
@@ -70,7 +98,7 @@ class EventLog:
         self.events: list[Event] = []
 
     def emit(
-        self, kind: str, task: str, depth: int, message: str, data: dict[str, Any] | None = None
+        self, kind: EventKind, task: str, depth: int, message: str, data: dict[str, Any] | None = None
     ) -> None:
         event = Event(self.clock(), kind, task, depth, message, data or {})
         self.events.append(event)
@@ -78,11 +106,11 @@ class EventLog:
             self.on_event(event)
 
     def step(self, task: str) -> None:
-        self.emit("step", task, 0, f"step: {task}")
+        self.emit(EventKind.STEP, task, 0, f"step: {task}")
 
-    def repair(self, task: str, depth: int, repairs: Sequence[Repair]) -> None:
+    def repair(self, task: str, depth: int, repairs: Sequence[ConditionRepair]) -> None:
         self.emit(
-            "repair",
+            EventKind.REPAIR,
             task,
             depth,
             f"{task}: grounded in its demonstration: {'; '.join(map(str, repairs))}",
@@ -91,7 +119,7 @@ class EventLog:
 
     def condition(self, task: str, depth: int, source: str, cond: TaskCondition) -> None:
         self.emit(
-            "condition",
+            EventKind.CONDITION,
             task,
             depth,
             f"condition ({source}): pre [{fmt_items(cond.pre_conditions)}] post "
@@ -101,7 +129,7 @@ class EventLog:
 
     def ignored(self, task: str, depth: int, dropped: Sequence[Predicate]) -> None:
         self.emit(
-            "ignored",
+            EventKind.IGNORED,
             task,
             depth,
             f"{task}: ignoring {fmt_items(dropped)} (no such state here)",
@@ -109,11 +137,11 @@ class EventLog:
         )
 
     def skip(self, task: str, depth: int) -> None:
-        self.emit("skip", task, depth, f"{task}: post-conditions already hold, skipped")
+        self.emit(EventKind.SKIP, task, depth, f"{task}: post-conditions already hold, skipped")
 
     def raised(self, task: str, depth: int, pre: Predicate, for_task: str) -> None:
         self.emit(
-            "raise",
+            EventKind.RAISE,
             task,
             depth,
             f"pre-condition '{pre}' of {for_task!r} unmet: raising {task!r}",
@@ -122,7 +150,7 @@ class EventLog:
 
     def back_off(self, task: str, depth: int, height: float, why: str) -> None:
         self.emit(
-            "back_off",
+            EventKind.BACK_OFF,
             task,
             depth,
             f"{task}: opening the hand and lifting it {height * 100:.0f} cm {why}",
@@ -131,7 +159,7 @@ class EventLog:
 
     def set_down(self, task: str, depth: int, held: str, drop: float) -> None:
         self.emit(
-            "set_down",
+            EventKind.SET_DOWN,
             task,
             depth,
             f"{task}: setting {held} down {drop * 100:.0f} cm first (the hand is freed for another task)",
@@ -156,7 +184,7 @@ class EventLog:
         degrees = round(math.degrees(turn))
         moved = aside is not None and bool(np.any(aside))
         self.emit(
-            "primitive",
+            EventKind.PRIMITIVE,
             task,
             depth,
             f"{task}: skill {skill.task_id} ({len(skill.segments)} DMP pieces)"
@@ -174,7 +202,7 @@ class EventLog:
         self, task: str, depth: int, touch: Touch, back: int, shift: np.ndarray, goal: np.ndarray
     ) -> None:
         self.emit(
-            "collision",
+            EventKind.COLLISION,
             task,
             depth,
             f"{task}: unallowed collision {touch.a} / {touch.b} at {fmt_vector(touch.position)}: backed up "
@@ -194,11 +222,11 @@ class EventLog:
             if missing
             else ""
         )
-        self.emit("post", task, depth, f"{task}: post-conditions met{note}")
+        self.emit(EventKind.POST, task, depth, f"{task}: post-conditions met{note}")
 
     def retry(self, task: str, depth: int, missing: Sequence[Predicate], attempt: int) -> None:
         self.emit(
-            "post_missing",
+            EventKind.POST_MISSING,
             task,
             depth,
             f"{task}: post-conditions not met: {fmt_items(missing)}; trying again",
@@ -214,7 +242,7 @@ class EventLog:
         attempt: int,
     ) -> None:
         self.emit(
-            "post_missing",
+            EventKind.POST_MISSING,
             task,
             depth,
             f"{task}: not tried again, its pre-condition '{undo[0]}' would undo '{undo[1]}'",
@@ -223,15 +251,15 @@ class EventLog:
 
     def gave_up(self, task: str, depth: int, missing: Sequence[Predicate], attempts: int) -> None:
         self.emit(
-            "post_missing",
+            EventKind.POST_MISSING,
             task,
             depth,
             f"{task}: post-conditions not met after {attempts} attempt(s): {fmt_items(missing)}; going on",
             {"missing": [str(m) for m in missing], "attempt": attempts, "final": True},
         )
 
-    def failure(self, reason: str, kind: str) -> None:
-        self.emit("failure", "", 0, f"stopped: {reason}", {"reason": reason, "failure_kind": kind})
+    def failure(self, reason: str, kind: FailureKind) -> None:
+        self.emit(EventKind.FAILURE, "", 0, f"stopped: {reason}", {"reason": reason, "failure_kind": kind})
 
 
 def fmt_items(items: Sequence[Any] | frozenset[Any]) -> str:

@@ -10,8 +10,9 @@ information of the start (§III-A.2) as the state:
   the post-conditions of the steps before it. A predicate holds until a post-condition contradicts it
   (:func:`taskcond.conditions.contradictions`), or until a step places its subject anew (a move's
   ``bottle inside box`` ends the bottle's earlier relations as subject);
-* **drop** (:data:`DROPPABLE`): a grasp, release, open or close whose own effect (:func:`named_effects`)
-  holds in the start state and no earlier step has touched it, and whose other post-conditions hold before
+* **drop** (an idempotent primitive, :attr:`~taskcond.primitives.Primitive.idempotent`): a grasp,
+  release, open or close whose own effect (:func:`named_effects`) holds in the start state and no earlier
+  step has touched it, and whose other post-conditions hold before
   it (``gripper not grasping`` after an earlier ``close box``), does nothing;
 * **undone** (:func:`_undone`): an open or close that a later close or open of the same container undoes
   before any step between them needs it does nothing either ("close everything" planned by a small model
@@ -64,11 +65,6 @@ Conditions = Callable[[str], TaskCondition]
 Affords = Callable[[str, tuple[str, ...]], str | None]
 """Primitive id and objects → why the scene refuses them, or None (:meth:`World.affords`)."""
 
-DROPPABLE = frozenset({"grasp", "release", "open", "close"})
-"""Primitives whose post-conditions say all they achieve (the executor's ``IDEMPOTENT``): one whose effects
-already hold at the start is dropped. A move is never dropped: ``mug above table`` holds while the mug is
-held up, and the move that sets it down is still needed (LHT3); its goal, a place, is not a predicate."""
-
 MAX_CHANGES = 8
 """Most insertions and moves one repair makes."""
 
@@ -98,7 +94,7 @@ class Change:
 
 
 @dataclass(frozen=True)
-class Repair:
+class PlanRepair:
     """What :func:`repair` made of a plan.
 
     Attributes:
@@ -279,7 +275,7 @@ def repair(
     conditions: Conditions,
     affords: Affords | None = None,
     max_changes: int = MAX_CHANGES,
-) -> Repair:
+) -> PlanRepair:
     """Check ``steps`` against the start state with the task conditions and repair it (module doc).
 
     Args:
@@ -311,7 +307,7 @@ def repair(
                     f"'{plan[flaw.index]}' needs '{flaw.pred}', and the only primitive that achieves it, "
                     f"'{achiever}', cannot be done here: {refused}"
                 )
-                return Repair(tuple(steps), tuple(plan), tuple(changes), (), impossible)
+                return PlanRepair(tuple(steps), tuple(plan), tuple(changes), (), impossible)
         best = _best_fix(plan, flaw, achiever, model)
         if best is None:
             given_up.add((plan[flaw.index], flaw.pred))
@@ -319,7 +315,7 @@ def repair(
         plan, change = best
         changes.append(change)
     left = [f"'{f.pred}' for '{plan[f.index]}'" for f in model.flaws(plan)]
-    return Repair(tuple(steps), tuple(plan), tuple(changes), tuple(left))
+    return PlanRepair(tuple(steps), tuple(plan), tuple(changes), tuple(left))
 
 
 def _achiever(flaw: _Flaw) -> str | None:
@@ -369,7 +365,7 @@ def _drops(plan: list[str], model: _Model) -> list[Change]:
     while i < len(plan):
         task = plan[i]
         parsed = parse_task(task)
-        if parsed.primitive.id not in DROPPABLE:
+        if not parsed.primitive.idempotent:
             i += 1
             continue
         cond = model.condition(task)
@@ -458,12 +454,11 @@ def goal_of(steps: Sequence[str], conditions: Conditions | None = None) -> tuple
 
 
 __all__ = [
-    "DROPPABLE",
     "MAX_CHANGES",
     "Affords",
     "Change",
     "Conditions",
-    "Repair",
+    "PlanRepair",
     "about_gripper_place",
     "apply",
     "effects",

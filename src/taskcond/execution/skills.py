@@ -45,10 +45,8 @@ from taskcond.grounding import DemoEvidence
 from taskcond.primitives import parse_task
 
 LIBRARY_FORMAT = 3
-"""Version of the on-disk skill library layout; a library with another version is refused. Format 3:
-each skill keeps the environment information at its demonstration's start and end (for grounding,
-:mod:`taskcond.grounding`); format 2: pieces may move several arms (3k-dimensional DMPs, 4k orientation
-columns); format 1 had one arm."""
+"""Version of the on-disk skill library layout; a library with another version is refused (the formats'
+history is in BENCHMARKS.md, "Formats and revisions")."""
 STANDSTILL = 0.01
 """End-effector speed (m/s) below which a demonstration sample counts as a standstill (of every arm)."""
 MIN_SEGMENT_SAMPLES = 3

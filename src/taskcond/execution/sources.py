@@ -16,7 +16,7 @@ from taskcond.conditions import (
 )
 from taskcond.execution.skills import SkillError, SkillLibrary
 from taskcond.generator import ConditionGenerator, GenerationResult
-from taskcond.grounding import DemoEvidence, Grounded, Repair, ground
+from taskcond.grounding import ConditionRepair, DemoEvidence, Grounded, ground
 from taskcond.primitives import parse_task
 
 
@@ -173,7 +173,7 @@ class GroundedConditions:
         self.library = library
         self.exclude = tuple(exclude)
         self.order_seed = order_seed
-        self.repairs: dict[str, tuple[Repair, ...]] = {}
+        self.repairs: dict[str, tuple[ConditionRepair, ...]] = {}
 
     def leaving_out(self, primitive: str, order_seed: int) -> GroundedConditions:
         """This source with ``primitive``'s examples left out of the LLM's prompts (as

@@ -2,7 +2,7 @@
 
 The condition-guided executor (Alg. 1, Alg. 2) talks to a :class:`World`: it reads environment
 information (§III-A.2) as an :class:`Observation` in the task-condition vocabulary and commands end-effector
-poses. :class:`taskcond.execution.kitchen.KitchenWorld` implements it over the PyBullet suite; a real robot
+poses. :class:`taskcond.worlds.kitchen.KitchenWorld` implements it over the PyBullet suite; a real robot
 would implement the same few methods.
 """
 

@@ -1,7 +1,7 @@
 """The baseline's training configuration (:class:`NetSpec`, :class:`TrainSpec`; importable without JAX) and
 where its demonstrations and checkpoints are cached, keyed by everything that shapes them, so
 that nothing is reused across configurations (like the skill library's
-:func:`~taskcond.execution.runner.default_library_dir`).
+:func:`~taskcond.application.library.default_library_dir`).
 
 - demonstrations: ``<cache dir>/il/data-v<DATA_FORMAT>-oracles<revision>-<digest of the DataSpec, camera,
   chunk>/<task id>.npz``;
@@ -71,7 +71,7 @@ def _digest(obj: Any) -> str:
 
 def data_key(spec: DataSpec) -> str:
     """``data-v<format>-oracles<revision>-<digest>`` of the demonstrations ``spec`` asks for."""
-    from taskcond.execution.runner import ORACLE_REVISION
+    from taskcond.tasks.oracle import ORACLE_REVISION
 
     camera = {k: getattr(CAMERA, k) for k in ("eye", "target", "up", "fov_deg", "width", "height")}
     recording = {"camera": camera, "chunk": CHUNK, "hold": HOLD_STEPS, "depth": [DEPTH_NEAR, DEPTH_FAR]}

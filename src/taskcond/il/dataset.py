@@ -5,8 +5,8 @@ records, every :data:`CHUNK` control steps, one :class:`Sample`: the camera imag
 state and the oracle's next :data:`CHUNK` actions. A long-horizon task's oracle is split at its primitive
 steps, each labelled with that step's primitive task name, so that a policy learns "grasp bottle" from the
 state a preceding primitive leaves too (as the skill library does with
-:data:`taskcond.execution.kitchen.CONTEXTS`). Each step's demonstration ends with :data:`HOLD_STEPS` steps
-holding its last action (the policy learns to stay once done).
+:data:`taskcond.application.demonstrations.CONTEXTS`). Each step's demonstration ends with
+:data:`HOLD_STEPS` steps holding its last action (the policy learns to stay once done).
 
 Frames and units: positions in metres in the world frame (z up), quaternions xyzw, gripper command 0 (open)
 or 1 (closed), images from :data:`CAMERA` (pixel row 0 at the top).

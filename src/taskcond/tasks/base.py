@@ -71,12 +71,12 @@ class Task:
         """Bring the freshly randomized scene into the task's initial state (reset time only)."""
 
     def setup_after_random(self, env: KitchenEnv, rng: np.random.Generator) -> None:
-        """The task's set-up after a random start (:class:`taskcond.execution.kitchen.RandomStart`): by
+        """The task's set-up after a random start (:class:`taskcond.tasks.free.RandomStart`): by
         default :meth:`setup` (an object the task starts holding is grasped where it now stands)."""
         self.setup(env, rng)
 
     def fixed_joints(self, env: KitchenEnv) -> dict[str, float]:
-        """Container name → open fraction that a random start (:class:`taskcond.execution.kitchen.
+        """Container name → open fraction that a random start (:class:`taskcond.tasks.free.
         RandomStart`) must keep: the container states the task assumes at its start and its oracle's
         demonstration showed (``open box`` needs the box closed). The others are drawn at random."""
         return {}

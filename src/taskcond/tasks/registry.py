@@ -97,3 +97,8 @@ def make(
 ) -> KitchenEnv:
     """A :class:`KitchenEnv` for ``task_id`` (see :func:`task_ids`); ``seed`` seeds its first reset."""
     return KitchenEnv(get_task(task_id), seed=seed, render_mode=render_mode, gui=gui, config=config)
+
+
+def primitive_task_ids() -> list[str]:
+    """Suite ids of every primitive task (the fold with both arms)."""
+    return [t.id for t in list_tasks() if t.kind == "primitive"]

@@ -1,6 +1,6 @@
 """Evaluation episodes as Ray tasks (``--backend ray``, extra ``[ray]``), for users who outgrow one machine.
 
-Each episode is one task running :func:`~taskcond.execution.runner.run_job`; a Ray worker process keeps its
+Each episode is one task running :func:`~taskcond.application.workers.run_job`; a Ray worker process keeps its
 skill library and condition sources between the episodes it runs, as a local worker process does. Where
 Ray runs: ``address`` (``--ray-address``), else ``$RAY_ADDRESS``, else the Ray instance already running on
 this machine, else a new local one with ``workers`` CPUs (shut down again at the end). The workers read
@@ -14,7 +14,8 @@ import os
 from collections.abc import Iterator
 from typing import Any
 
-from taskcond.execution.runner import Job, WorkerArgs, run_job
+from taskcond.application.workers import WorkerArgs, run_job
+from taskcond.results import Job
 
 
 class RayUnavailableError(RuntimeError):

@@ -1,0 +1,203 @@
+"""The recording of oracle demonstrations into skills (``taskcond learn``, paper Fig. 2 and §III-D), and of
+a suite oracle's trajectory into a demonstration file (``taskcond record``).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Iterable
+from pathlib import Path
+
+import numpy as np
+
+from taskcond.conditions import (
+    Collision,
+)
+from taskcond.envs.kitchen import KitchenEnv
+from taskcond.execution.demofile import RecordedTrajectory
+from taskcond.execution.skills import Demonstration, SkillLibrary, learn_skill, target_object
+from taskcond.execution.sources import condition_from_environment
+from taskcond.grounding import DemoEvidence
+from taskcond.primitives import parse_task
+from taskcond.tasks.base import PrimitiveTask
+from taskcond.tasks.free import FreeTask
+from taskcond.tasks.registry import get_task, make, primitive_task_ids
+from taskcond.worlds.kitchen import KINOVA_STILL, KitchenWorld
+
+
+# ----------------------------------------------------------------------------------- demonstrations
+def _record_step(world: KitchenWorld, step: PrimitiveTask, task_id: str) -> Demonstration:
+    """Execute one primitive oracle from the current state and record it."""
+    actions = (trajectory.action(i) for trajectory in step.plans(world.env) for i in range(len(trajectory)))
+    return _record(world, step.info.task_name, task_id, actions)
+
+
+def _record(world: KitchenWorld, name: str, task_id: str, actions: Iterable[np.ndarray]) -> Demonstration:
+    """Command ``actions`` (each (8,) or (16,): position, quaternion xyzw, gripper per arm) one control step
+    each from the current state and record the demonstration of task ``name``: the commanded end-effector
+    trajectory, the environment information before and after, the contacts during."""
+    env = world.env
+    before = world.observe()
+    target = target_object(name)
+    center = world.locate(target, before) if target is not None else None
+    touched: set[Collision] = set()
+    contact = -1
+    rows: list[np.ndarray] = []
+    for action in actions:
+        rows.append(np.asarray(action, float))
+        env.step(rows[-1])
+        for touch in world.touches():
+            touched.add(touch.collision)
+            if contact < 0 and target is not None and {touch.a, touch.b} == {"gripper", target}:
+                contact = len(rows) - 1
+    for _ in range(5):
+        env.step(rows[-1])
+    after = world.observe()
+    actions = np.array(rows)
+    arms = [actions[:, :8]]
+    if actions.shape[1] == 16 and np.ptp(actions[:, 8:], axis=0).max() > KINOVA_STILL:
+        arms.append(actions[:, 8:])
+    task = parse_task(name)
+    evidence = DemoEvidence(
+        task.name,
+        frozenset((*task.objects, *world.arms)),
+        before.predicates,
+        after.predicates,
+        frozenset(touched),
+    )
+    return Demonstration(
+        task_name=task.name,
+        task_id=task_id,
+        times=np.arange(len(actions)) * env.dt,
+        positions=np.concatenate([a[:, :3] for a in arms], axis=1),
+        orientations=np.concatenate([a[:, 3:7] for a in arms], axis=1),
+        gripper=actions[:, 7],
+        target=target,
+        target_center=np.zeros(3) if center is None else center,
+        target_contact=contact,
+        condition=condition_from_environment(name, before.predicates, after.predicates, touched),
+        evidence=evidence.restricted(evidence.objects),
+    )
+
+
+def record_demonstrations(task_id: str, seed: int = 0) -> tuple[list[Demonstration], bool]:
+    """Run the oracle of a suite task once and record a demonstration of each primitive it performs: one
+    for a primitive task, one per step for a long-horizon task (each step planned from the state the
+    previous one left). Returns the demonstrations and whether the oracle succeeded.
+
+    Raises:
+        ValueError: ``task_id`` has a step that is not a primitive task (it cannot be demonstrated).
+    """
+    task = get_task(task_id)
+    steps = [task] if isinstance(task, PrimitiveTask) else list(getattr(task, "steps", ()))
+    if not steps or not all(isinstance(s, PrimitiveTask) for s in steps):
+        raise ValueError(f"{task_id!r} has no primitive steps to demonstrate")
+    env = make(task_id)
+    try:
+        env.reset(seed=seed)
+        world = KitchenWorld(env)
+        demos = [
+            _record_step(world, step, task_id if step is task else f"{task_id}.{k}-{step.info.id}")
+            for k, step in enumerate(steps, start=1)
+        ]
+        success = bool(task.success(env))
+    finally:
+        env.close()
+    return demos, success
+
+
+def record_trajectory(task_id: str, seed: int = 0) -> tuple[RecordedTrajectory, bool]:
+    """Run the oracle of a suite primitive task once and return its commanded trajectory as a
+    demonstration file's content (``taskcond record``), with whether the oracle succeeded."""
+    task = get_task(task_id)
+    if not isinstance(task, PrimitiveTask):
+        raise ValueError(
+            f"{task_id!r} is not a primitive task; record one of: {', '.join(primitive_task_ids())}"
+        )
+    env = make(task_id)
+    try:
+        env.reset(seed=seed)
+        rows = [trajectory.action(i) for trajectory in task.plans(env) for i in range(len(trajectory))]
+        for row in rows:
+            env.step(row)
+        success = bool(task.success(env))
+        dt = env.dt
+    finally:
+        env.close()
+    actions = np.array(rows)
+    recorded = RecordedTrajectory(
+        task_name=task.info.task_name,
+        scene=task_id,
+        seed=seed,
+        times=np.arange(len(actions)) * dt,
+        positions=actions[:, :3],
+        orientations=actions[:, 3:7],
+        gripper=actions[:, 7],
+    )
+    return recorded, success
+
+
+def demonstration_id(task_name: str) -> str:
+    """Skill id of a demonstration from a file: ``<primitive>-<object>[-<object>]`` with spaces as ``_``,
+    like the suite's ids (``push_in_front-toothpaste-bottle``)."""
+    task = parse_task(task_name)
+    return "-".join([task.primitive.id, *(o.replace(" ", "_") for o in task.objects)])
+
+
+def replay_demonstration(recorded: RecordedTrajectory) -> Demonstration:
+    """Replay a demonstration file's trajectory in its scene (a suite task's initial state, else the default
+    kitchen) and record it like an oracle's: the environment information at its start and end, the contacts
+    during it, the target's centre and first contact.
+
+    Raises:
+        ValueError: an unknown scene, or a task whose objects the scene does not have.
+    """
+    env = KitchenEnv(FreeTask(recorded.task_name)) if recorded.scene is None else make(recorded.scene)
+    try:
+        env.reset(seed=recorded.seed)
+        world = KitchenWorld(env)
+        task = parse_task(recorded.task_name)
+        reason = world.affords(task.primitive.id, task.objects)
+        if reason is not None:
+            raise ValueError(f"cannot replay {task.name!r}: {reason}")
+        if recorded.arms > len(world.arms):
+            raise ValueError(f"the demonstration moves {recorded.arms} arms, the scene has {len(world.arms)}")
+        return _record(world, task.name, demonstration_id(task.name), recorded.actions(env.dt))
+    finally:
+        env.close()
+
+
+CONTEXTS = ("LHT1", "LHT2", "LHT3", "LHT4")
+"""Long-horizon oracles whose steps are demonstrated too by default: the same primitives started from the
+states a preceding primitive leaves (the hand at a drawer handle, above a box), which demonstrations
+started from the home pose do not show. The novel-object tasks LHT1* and LHT2* are left out."""
+
+
+def learn_library(
+    directory: str | Path | None = None,
+    task_ids: Iterable[str] | None = None,
+    seed: int = 0,
+    tries: int = 5,
+    progress: Callable[[str, bool], None] | None = None,
+) -> SkillLibrary:
+    """Record oracle demonstrations and learn a skill from each (§III-D).
+
+    Args:
+        directory: where to save the library (plain files); not saved if None.
+        task_ids: suite ids to demonstrate, default every primitive task and :data:`CONTEXTS`.
+        seed: seed of the first try; a failed oracle run is recorded again with the next seed, up to
+            ``tries`` times, and the last one is kept if none succeeded.
+        progress: called with each task id and whether its oracle succeeded.
+    """
+    library = SkillLibrary()
+    for task_id in [*primitive_task_ids(), *CONTEXTS] if task_ids is None else task_ids:
+        for k in range(tries):
+            demos, ok = record_demonstrations(task_id, seed + k)
+            if ok:
+                break
+        for demo in demos:
+            library.add(learn_skill(demo))
+        if progress is not None:
+            progress(task_id, ok)
+    if directory is not None:
+        library.save(directory)
+    return library

@@ -1,0 +1,5 @@
+"""``python -m taskcond.cli``."""
+
+from taskcond.cli import main
+
+main()

@@ -1,0 +1,482 @@
+"""How the hand approaches a primitive's target (beyond the paper, around Alg. 2 lines 3–4): the skill and
+goal a primitive aims at (:class:`Aim`), a grasp turned to a free side of a round object, a carried object
+set down beside what is on top, transits to a skill's demonstrated start (over what lies on the way when
+carrying), backing off and setting down. :class:`Approach` is the part of the
+:class:`~taskcond.execution.executor.Executor` that does this; the hand's geometry is data
+(:class:`~taskcond.execution.config.Hand`, :attr:`~taskcond.execution.config.ExecutionConfig.hand`).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.spatial.transform import Rotation, Slerp
+
+from taskcond.dmp import DMPParameters, rollout
+from taskcond.execution.config import ExecutionConfig, Hand
+from taskcond.execution.events import EventLog
+from taskcond.execution.failures import ExecutionError, FailureKind
+from taskcond.execution.skills import (
+    Segment,
+    Skill,
+    SkillError,
+    SkillLibrary,
+    target_object,
+    turned,
+)
+from taskcond.execution.world import Observation, World
+from taskcond.primitives import HandApproach, parse_task
+
+CARRY_MARGIN = 0.03
+"""Clearance (m) a carried object keeps above what it is carried over, and around it."""
+
+
+MAX_STRETCH = 3.0
+"""Largest ratio of new to demonstrated goal offset per dimension that keeps Eq. 2's scaling."""
+MIN_SCALED = 0.01
+"""Least demonstrated displacement (m) of a piece's dimension for Eq. 2's scaling of its forcing term."""
+
+
+def _conditioned(seg: Segment, start: np.ndarray, goal: np.ndarray) -> DMPParameters:
+    """The piece's DMP for a movement from ``start`` to ``goal`` (3,): Eq. 2's scaled forcing term where
+    the new offset ``goal − start`` keeps the demonstrated sign and at most :data:`MAX_STRETCH` times its
+    size, the unscaled term elsewhere (:meth:`DMPParameters.unscaled`), so that a demonstration is never
+    replayed mirrored or blown up; a dimension the demonstration hardly moved (less than
+    :data:`MIN_SCALED`) is always unscaled, so that a millimetre more or less of offset does not switch
+    its demonstrated excursion on or off."""
+    dmp = seg.dmp
+    demo = dmp.goal - dmp.y0
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ratio = np.where(dmp.goal_scaled, (np.asarray(goal) - np.asarray(start)) / demo, 1.0)
+    bad = dmp.goal_scaled & ((ratio < 0) | (np.abs(ratio) > MAX_STRETCH) | (np.abs(demo) < MIN_SCALED))
+    return dmp.unscaled(bad) if bad.any() else dmp
+
+
+@dataclass(frozen=True)
+class Aim:
+    """What one execution of a primitive runs, and towards what (Alg. 2 lines 3–4).
+
+    Attributes:
+        task: the primitive task.
+        skill: its DMP skill, looked up for the current end-effector pose relative to the target.
+        target_name: the object whose centre is goalPos (or ``"position"``); None for a primitive without a
+            target, whose pieces move by their demonstrated offsets.
+        target: (3,) the target's perceived centre, m, world frame; None without a target.
+        turn: rad about the world's vertical through the target's centre by which the skill's
+            demonstration is turned (:meth:`Approach._turn`); 0 as demonstrated.
+        aside: (3,) m the goal is moved horizontally from the demonstrated spot on top of the target
+            (:meth:`Approach._aside`), already added to ``target``; zero as demonstrated.
+        approach: (3,) m, world frame: where the hand goes before the skill runs, the skill's
+            demonstrated start relative to the target (:meth:`Approach._transit`); None to start where it
+            is.
+        over: least height (m, world z) of the hand on its way to ``approach`` when it carries an object
+            (:func:`_carry_height`); None for an empty hand.
+    """
+
+    task: str
+    skill: Skill
+    target_name: str | None
+    target: np.ndarray | None
+    turn: float = 0.0
+    aside: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(3))
+    approach: np.ndarray | None = None
+    over: float | None = None
+
+    @property
+    def arms(self) -> int:
+        """Number of arms k the skill moves together."""
+        return self.skill.arms
+
+
+class Approach:
+    """The approach geometry of the :class:`~taskcond.execution.executor.Executor` (its base class): what it
+    needs is the world, the skill library, the constants, the hand, the event log, and a control step
+    (:meth:`_step`)."""
+
+    world: World
+    library: SkillLibrary
+    config: ExecutionConfig
+    hand: Hand
+    log: EventLog
+
+    def _back_off(self, task: str, depth: int, why: str) -> None:
+        """Beyond the paper: open the hand and lift it straight up by :data:`BACK_OFF_HEIGHT`. Before a
+        grasp is tried again, so that the object the missed grasp disturbed settles and the next try
+        starts above it, not beside it in whatever pose the miss left the hand (a retry from there
+        brushes the object over); and when a release is skipped because its object is no longer grasped
+        but a finger still touches it (it slipped), so that the hand lets go of it."""
+        here, quat = self.world.ee_pose()
+        opened = 0.0
+        self.log.back_off(task, depth, BACK_OFF_HEIGHT, why)
+        for _ in range(BACK_OFF_RELEASE):
+            self._step(here, quat, opened)
+        self._straight(here + np.array([0.0, 0.0, BACK_OFF_HEIGHT]), quat, opened)
+
+    def _set_down(self, task: str, depth: int) -> None:
+        """Beyond the paper: before a release that Alg. 1 raised to free the hand (another primitive needs
+        ``gripper not grasping``), lower the held object straight down onto what lies under it
+        (:func:`_support_below`) until it touches something or is :data:`SET_DOWN_GAP` above it, so that
+        it is put down rather than dropped from where the hand happened to be (a dropped bottle falls
+        over, and no grasp skill picks up a lying object)."""
+        obs = self.world.observe()
+        held = parse_task(task).objects[0]
+        if obs.grasped() != held or held not in obs.boxes:
+            return
+        lower, _ = obs.boxes[held]
+        support = _support_below(held, obs, self.world.arms)
+        if support is None or float(lower[2]) - support <= 2 * SET_DOWN_GAP:
+            return
+        drop = float(lower[2]) - support - SET_DOWN_GAP
+        here, quat = self.world.ee_pose()
+        gripper = self._last[2] if hasattr(self, "_last") else 1.0
+        self.log.set_down(task, depth, held, drop)
+
+        def landed() -> bool:
+            return any(
+                held in (t.a, t.b) and {t.a, t.b}.isdisjoint(self.world.arms) for t in self.world.touches()
+            )
+
+        self._straight(here - np.array([0.0, 0.0, drop]), quat, gripper, landed)
+
+    def _straight(
+        self,
+        goal: np.ndarray,
+        orientation: np.ndarray,
+        gripper: float,
+        stop: Callable[[], bool] | None = None,
+    ) -> None:
+        """Move the hand in a straight line from where it is to ``goal`` (3,) m at
+        :attr:`ExecutionConfig.speed_limit`, holding ``orientation`` (4,) xyzw and the ``gripper`` command,
+        until ``stop()`` says so after a step."""
+        for point in self._line(self.world.ee_pose()[0], goal):
+            self._step(point, orientation, gripper)
+            if stop is not None and stop():
+                break
+
+    def _line(self, start: np.ndarray, goal: np.ndarray) -> list[np.ndarray]:
+        """Positions (3,) m, one per control step, from ``start`` (exclusive) to ``goal`` (inclusive) in a
+        straight line at :attr:`ExecutionConfig.speed_limit`."""
+        n = max(1, math.ceil(float(np.linalg.norm(goal - start)) / (self.config.speed_limit * self.world.dt)))
+        return [start + (goal - start) * (k / n) for k in range(1, n + 1)]
+
+    def _aim(self, task: str, obs: Observation, retry: bool = False) -> Aim:
+        """Alg. 2 lines 3–4: the target's perceived centre in ``obs`` (targetPos, the goalPos of a primitive
+        with a target) and the skill for the end effector's pose relative to it.
+
+        A grasp of an object that fell over stops the run: every grasp skill is demonstrated on an upright
+        object, and re-grasps that cannot hold it would only spend the budget. A grasp of a round object
+        whose demonstrated approach would bring the hand against a neighbour comes from another side
+        (:meth:`_turn`). A grasp whose hand is far from every demonstrated start goes to the highest one
+        first (:meth:`_far`, :meth:`_transit`), and so does an open or close, unless the primitive is
+        tried again (``retry``): the failed try came from there (a retried grasp starts above the object,
+        where :meth:`_back_off` left the hand; a retried open goes on from the lid where the hand is).
+
+        Raises:
+            ExecutionError: the target is unseen or lies (a grasp), no skill fits, or it needs more arms.
+        """
+        target_name = target_object(task)
+        target = self.world.locate(target_name, obs) if target_name is not None else None
+        if target_name is not None and target is None:
+            raise ExecutionError(
+                f"{target_name!r} is not perceived; cannot aim {task!r} at it", FailureKind.NOT_PERCEIVED
+            )
+        parsed = parse_task(task)
+        grasp = parsed.primitive.id == "grasp"
+        if grasp and target_name in obs.lying:
+            raise ExecutionError(
+                f"{target_name!r} fell over; no grasp skill holds it lying (each is demonstrated upright)",
+                FailureKind.FALLEN,
+            )
+        here, here_q = self.world.ee_pose()
+        try:
+            skill = self.library.lookup(task, here - target if target is not None else here, here_q)
+        except SkillError as exc:
+            raise ExecutionError(str(exc), FailureKind.NO_SKILL) from None
+        if skill.arms > len(self.world.arms):
+            raise ExecutionError(
+                f"skill {skill.task_id} of {task!r} moves {skill.arms} arms; this robot has "
+                f"{len(self.world.arms)}",
+                FailureKind.NO_SKILL,
+            )
+        carry = parsed.primitive.approach is HandApproach.CARRY and obs.grasped() == parsed.objects[0]
+        far = (
+            ((parsed.primitive.approach is HandApproach.EMPTY_HAND and not retry) or carry)
+            and target is not None
+            and self._far(task, skill, here - target)
+        )
+        if far and not carry:
+            skill = max(self.library.candidates(task), key=lambda s: float(s.start_offset[2]))
+        turn = 0.0
+        if grasp and target is not None and target_name in obs.round and skill.segments[0].anchor == "target":
+            turn = self._turn(skill, target_name, target, obs, far)
+        aside = np.zeros(3)
+        if parsed.primitive.id == "move_on_top" and target is not None and target_name is not None:
+            aside = self._aside(skill, target_name, target, obs)
+        approach = target + aside + turned(skill.start_offset, turn) if far and target is not None else None
+        over = None
+        if carry and approach is not None:
+            over = _carry_height(parsed.objects[0], here, approach, obs, self.world.arms)
+        return Aim(
+            task, skill, target_name, None if target is None else target + aside, turn, aside, approach, over
+        )
+
+    def _far(self, task: str, skill: Skill, offset: np.ndarray) -> bool:
+        """Whether the hand, at ``offset`` (3,) m from the target, is farther than
+        :attr:`ExecutionConfig.approach_distance` from the start of ``skill`` (the nearest demonstrated
+        one): a one-arm skill anchored on its target only."""
+        limit = self.config.approach_distance
+        if limit is None or skill.arms != 1 or skill.segments[0].anchor != "target":
+            return False
+        return float(np.linalg.norm(skill.start_offset - offset)) > limit
+
+    def _transit(
+        self, goal: np.ndarray, orientation: np.ndarray, gripper: float, over: float | None = None
+    ) -> None:
+        """Beyond the paper: carry the hand to ``goal`` (3,) m, world frame, before a skill that was
+        demonstrated from there, so that its DMP starts where it was learned (a DMP started far from its
+        demonstration keeps the demonstrated path's shape and brings it, scaled, into whatever lies
+        between), along :meth:`_transit_path`, turning the hand to ``orientation`` (4,) xyzw on the way
+        (the demonstration's first; turned there at once, the arm swings the hand off its path) and holding
+        the ``gripper`` command; at least ``over`` (m, world z) high on the way across, if given."""
+        here, here_q = self.world.ee_pose()
+        path = self._transit_path(here, goal, over)
+        turns = self._transit_orientations(here_q, orientation, len(path))
+        for point, quat in zip(path[1:], turns[1:], strict=True):
+            self._step(point, quat, gripper)
+        for _ in range(TRANSIT_SETTLE):  # the arm lags its commands: the DMP starts where the hand is
+            if float(np.linalg.norm(self.world.ee_pose()[0] - goal)) < TRANSIT_TOLERANCE:
+                break
+            self._step(goal, orientation, gripper)
+
+    @staticmethod
+    def _transit_orientations(start: np.ndarray, end: np.ndarray, n: int) -> np.ndarray:
+        """(n, 4) xyzw orientations slerped from ``start`` to ``end`` (each (4,) xyzw) over a transit."""
+        slerp = Slerp([0.0, 1.0], Rotation.from_quat([start, end]))
+        return slerp(np.linspace(0.0, 1.0, n)).as_quat()
+
+    def _transit_path(self, start: np.ndarray, goal: np.ndarray, over: float | None = None) -> np.ndarray:
+        """(m, 3) positions, one per control step, from ``start`` to ``goal`` (each (3,) m): straight up to
+        the higher of the two heights (and of ``over``, m), across, and down, at
+        :attr:`ExecutionConfig.speed_limit`."""
+        top = max(float(start[2]), float(goal[2]), -math.inf if over is None else over)
+        points, here = [np.asarray(start, float)], np.asarray(start, float)
+        for waypoint in (np.array([*start[:2], top]), np.array([*goal[:2], top]), np.asarray(goal, float)):
+            points += self._line(here, waypoint)
+            here = waypoint
+        return np.array(points)
+
+    def _aside(self, skill: Skill, target_name: str, target: np.ndarray, obs: Observation) -> np.ndarray:
+        """Where on top of ``target_name`` (centre ``target`` (3,) m) the carried object goes: the
+        demonstrated spot (the skill's end: the approach's goal plus the later pieces' displacements), or
+        when the carried object's footprint there (its perceived box, carried with the hand) comes nearer
+        than :attr:`ExecutionConfig.clearance` to another object's box, the nearest spot that is clear, in
+        steps of 2 cm up to 20 cm in 16 directions, with the object's centre still over ``target_name``'s
+        box and the hand's goals within reach. When the carried object's bottom would end more than
+        :data:`PLACE_ABOVE` below the top of ``target_name``'s box, the goal is raised to put it that much
+        above instead: a skill demonstrated with another object (``move_on_top-spatula-box`` for the mug)
+        holds it at another height. Returns the shift (3,) m of the goal (zero when the demonstrated spot
+        is clear and high enough). A table's demonstrated spot is where the demonstration's scene had room,
+        not where a random scene has."""
+        zero = np.zeros(3)
+        carried = obs.grasped()
+        if carried is None or carried not in obs.boxes or target_name not in obs.boxes:
+            return zero
+        first = skill.segments[0]
+        if first.anchor != "target":
+            return zero
+        end = first.goal(first.dmp.y0, target)
+        for seg in skill.segments[1:]:
+            end = seg.goal(end, target)
+        here, _ = self.world.ee_pose()
+        lo, hi = obs.boxes[carried]
+        foot = (lo[:2] - here[:2] + end[:2], hi[:2] - here[:2] + end[:2])
+        middle = (obs.centers.get(carried, (lo + hi) / 2)[:2] - here[:2]) + end[:2]
+        skip = (target_name, carried, *self.world.ground, *self.world.arms)
+        others = [(a[:2], b[:2]) for name, (a, b) in obs.boxes.items() if name not in skip]
+        support_lo, support_hi = (b[:2] for b in obs.boxes[target_name])
+        below = float(obs.boxes[target_name][1][2] - (end[2] - here[2] + lo[2]))
+        lift = below + PLACE_ABOVE if below > PLACE_ABOVE else 0.0
+
+        def gap(shift: np.ndarray) -> float:
+            flo, fhi = foot[0] + shift, foot[1] + shift
+            return min(
+                (float(np.linalg.norm(np.maximum(np.maximum(a - fhi, flo - b), 0.0))) for a, b in others),
+                default=np.inf,
+            )
+
+        if gap(np.zeros(2)) >= self.config.clearance:
+            return np.array([0.0, 0.0, lift])
+        angles = np.linspace(0.0, 2 * math.pi, 16, endpoint=False)
+        for radius in np.arange(0.02, 0.201, 0.02):
+            best, best_gap = None, self.config.clearance
+            for angle in angles:
+                shift = radius * np.array([math.cos(angle), math.sin(angle)])
+                inside = np.all(middle + shift >= support_lo) and np.all(middle + shift <= support_hi)
+                if not inside or (g := gap(shift)) < best_gap:
+                    continue
+                goals = [first.goal(first.dmp.y0, target), end]
+                if all(self.world.reach_error(q + np.array([*shift, lift])) is None for q in goals):
+                    best, best_gap = shift, g
+            if best is not None:
+                return np.array([*best, lift])
+        return np.array([0.0, 0.0, lift])
+
+    # long: one search over the hand's sides; its two closures share the sampled way
+    def _turn(self, skill: Skill, target_name: str, target: np.ndarray, obs: Observation, far: bool) -> float:
+        """The side a grasp of the round object ``target_name`` (centre ``target`` (3,) m) comes from: the
+        demonstration turned by 0, ±π/2 or π rad about the object's vertical axis (a round object is held
+        the same from every side). The hand's way there is what the skill's pieces with the gripper still
+        open make of it (their DMPs rolled out from the hand, or from the demonstrated start when ``far``:
+        :meth:`_far`), ending at the grasp pose. The demonstrated side (0) is kept unless the hand's
+        footprint (:attr:`ExecutionConfig.hand`, along the finger axis of the demonstrated orientation,
+        turned) reaches into the perceived box of anything standing above the fingertips at the grasp pose,
+        or above the housing (``self.hand.housing`` over the fingertips) on the way, by more than
+        :attr:`ExecutionConfig.clearance` (an open drawer, a neighbouring bottle, the box's corner passed
+        on the way down; a grazed corner is left to Alg. 2 for a skill demonstrated from about here, as
+        demonstrations near such neighbours succeed) or at all (``far``: a skill demonstrated in another
+        scene), or the arm itself would meet a neighbour on the way (:meth:`World.sweep`, more than
+        :data:`SWEEP_TOLERANCE` into it). Then the reachable side that passes clear, then reaches least
+        into a box, then keeps the largest gap, wins (the demonstrated one on a tie). A hand housing
+        against a neighbour cannot be repaired by Alg. 2's goal shifts, which move the fingers off the wall
+        they are to hold."""
+        arms = self.world.arms
+        others = [
+            (lo, hi)
+            for name, (lo, hi) in obs.boxes.items()
+            if name not in (target_name, *self.world.ground, *arms)
+        ]
+        opened = []
+        for seg in skill.segments:
+            if seg.gripper >= 0.5:
+                break
+            opened.append(seg)
+        if not opened:
+            return 0.0
+        half_length, half_width = self.config.hand
+        u = np.linspace(-1.0, 1.0, 9)[None, :, None, None] * half_length
+        v = np.linspace(-1.0, 1.0, 3)[None, None, :, None] * half_width
+        here, here_q = self.world.ee_pose()
+        fractions = np.linspace(0.0, 1.0, WAY_SAMPLES + 1)
+
+        def way(turn: float) -> tuple[np.ndarray, np.ndarray]:
+            """(m, 3) hand positions to the grasp pose and (m, 4) orientations xyzw on the way."""
+            point, quat = (target + turned(skill.start_offset, turn) if far else here), here_q
+            points, quats = [], []
+            if far:
+                path = self._transit_path(here, point)
+                quat = opened[0].orientation(1.0, here_q, turn)
+                points.append(path[::TRANSIT_EVERY])
+                quats.append(self._transit_orientations(here_q, quat, len(path))[::TRANSIT_EVERY])
+            for seg in opened:
+                goal = seg.goal(point, target, turn)
+                points.append(
+                    rollout(_conditioned(seg, point, goal), point, goal, n_steps=WAY_SAMPLES).positions
+                )
+                quats.append(seg.orientation(fractions, quat, turn))
+                point, quat = goal, quats[-1][-1]
+            return np.concatenate(points)[:, :3], np.concatenate(quats)[:, :4]
+
+        def clearance(points: np.ndarray, quats: np.ndarray) -> tuple[bool, float, float]:
+            """Of a way (:func:`way`): (the arm passes clear, − deepest reach of a footprint sample into a
+            box, least gap): larger is clearer."""
+            axes = Rotation.from_quat(quats).apply([0.0, 1.0, 0.0])
+            flat = axes[:, :2] / np.maximum(np.linalg.norm(axes[:, :2], axis=1, keepdims=True), 1e-9)
+            across = np.column_stack([-flat[:, 1], flat[:, 0]])
+            feet = points[:, None, None, :2] + u * flat[:, None, None, :] + v * across[:, None, None, :]
+            floor = points[:, 2] + np.where(np.arange(len(points)) == len(points) - 1, 0.0, self.hand.housing)
+            depth, gap = 0.0, np.inf
+            for lo, hi in others:
+                above = hi[2] > floor
+                if not above.any():
+                    continue
+                samples = feet[above].reshape(-1, 2)
+                outside = np.maximum(np.maximum(lo[:2] - samples, samples - hi[:2]), 0.0)
+                gap = min(gap, float(np.linalg.norm(outside, axis=1).min()))
+                inner = np.minimum(samples - lo[:2], hi[:2] - samples).min(axis=1)
+                depth = max(depth, float(inner.max(initial=0.0)))
+            clear = self.world.sweep(points, quats, (target_name,)) > -SWEEP_TOLERANCE
+            return clear, -depth, gap
+
+        best, best_clearance = 0.0, clearance(*way(0.0))
+        if best_clearance[0] and -best_clearance[1] <= (0.0 if far else self.config.clearance):
+            return 0.0
+        for turn in (math.pi / 2, -math.pi / 2, math.pi):
+            points, quats = way(turn)
+            reachable = all(self.world.reach_error(q) is None for q in points)
+            if reachable and (score := clearance(points, quats)) > best_clearance:
+                best, best_clearance = turn, score
+        return best
+
+    def _step(self, position: np.ndarray, orientation: np.ndarray, gripper: float) -> None:
+        """One control step (ControlManipulator) towards the end-effector poses; the command is kept for
+        the settle steps."""
+        self._last = (position, orientation, gripper)
+        reason = self.world.step(position, orientation, gripper)
+        if reason is not None:
+            raise ExecutionError(f"simulation failed: {reason}", FailureKind.SIMULATION)
+
+
+WAY_SAMPLES = 30
+"""Points per open-gripper piece at which :meth:`Approach._turn` checks the hand's footprint."""
+BACK_OFF_HEIGHT = 0.15
+"""How far (m) the open hand rises before a grasp is tried again (:meth:`Approach._back_off`)."""
+BACK_OFF_RELEASE = 10
+"""Control steps the hand stays where it missed, open, before it rises."""
+SET_DOWN_GAP = 0.01
+"""Height (m) above its support at which a held object is let go when Alg. 1 frees the hand
+(:meth:`Approach._set_down`)."""
+TRANSIT_SETTLE = 60
+"""Most control steps a transit's last command is held for the hand to arrive."""
+TRANSIT_TOLERANCE = 0.01
+"""Distance (m) from a transit's goal at which the hand has arrived."""
+TRANSIT_EVERY = 10
+"""Every how many control steps of a transit (:meth:`Approach._transit_path`) :meth:`Approach._turn`
+checks the arm's way."""
+SWEEP_TOLERANCE = 0.005
+"""Penetration (m) of the arm into a neighbour on a grasp's way that :meth:`Approach._turn` lets pass (the
+fingertips brush what stands right beside the object)."""
+
+PLACE_ABOVE = 0.01
+"""Height (m) of a carried object's bottom above the top of what it is set on at the end of a move on top
+when the demonstrated height would push it more than this into it (:meth:`Approach._aside`)."""
+
+
+def _carry_height(
+    held: str, here: np.ndarray, goal: np.ndarray, obs: Observation, arms: Sequence[str]
+) -> float:
+    """The least height (m, world z) of the hand carrying ``held`` from ``here`` to ``goal`` (each
+    (3,) m) over everything whose bounding box the straight way passes near (within half the held
+    object's width and :data:`CARRY_MARGIN`), except a surface under the whole way (the table): their
+    highest top plus the height of the hand above the held object's bottom plus :data:`CARRY_MARGIN`."""
+    lower, upper = obs.boxes[held]
+    pad = float(np.max(upper[:2] - lower[:2])) / 2 + CARRY_MARGIN
+    way = here[:2] + np.linspace(0.0, 1.0, 25)[:, None] * (goal[:2] - here[:2])
+    tops = []
+    for name, (lo, hi) in obs.boxes.items():
+        near = np.all((way > lo[:2] - pad) & (way < hi[:2] + pad), axis=1)
+        under = np.all((way > lo[:2]) & (way < hi[:2]))
+        if name not in (held, *arms) and near.any() and not under:
+            tops.append(float(hi[2]))
+    return max(tops, default=0.0) + float(here[2] - lower[2]) + CARRY_MARGIN
+
+
+def _support_below(obj: str, obs: Observation, arms: Sequence[str]) -> float | None:
+    """The height (m, world z) of the highest top among the bounding boxes under the middle of ``obj``'s
+    footprint (its central half in x and y: a neighbour's box that only overlaps a corner of a round
+    object's is beside it, not under it) and below its bottom, or None when nothing is under it."""
+    lower, upper = obs.boxes[obj]
+    middle, half = (lower[:2] + upper[:2]) / 2, (upper[:2] - lower[:2]) / 4
+    tops = [
+        float(hi[2])
+        for name, (lo, hi) in obs.boxes.items()
+        if name != obj
+        and name not in arms
+        and hi[2] <= lower[2] + SET_DOWN_GAP
+        and np.all(lo[:2] < middle + half)
+        and np.all(hi[:2] > middle - half)
+    ]
+    return max(tops, default=None)

@@ -1,0 +1,2 @@
+"""World adapters: implementations of the executor's :class:`~taskcond.execution.world.World` over a simulator
+(:mod:`.kitchen`, the PyBullet kitchen suite). A new world is a new module here."""

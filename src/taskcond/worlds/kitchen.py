@@ -1,0 +1,274 @@
+"""The executor's :class:`~taskcond.execution.world.World` over the PyBullet kitchen suite: the world adapter.
+
+The executor core (:mod:`taskcond.execution`) knows the simulator only through this module.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Callable
+from functools import cache
+
+import numpy as np
+import pybullet as p
+
+from taskcond.conditions import (
+    KINOVA_GRIPPER,
+)
+from taskcond.envs.kitchen import KitchenEnv
+from taskcond.execution.world import Observation, Touch
+from taskcond.primitives import get_primitive
+from taskcond.sim.assets import BottleSpec, VesselSpec
+from taskcond.sim.perception import EnvironmentInfo, Perception, PerceptionConfig
+from taskcond.sim.recording import VideoRecorder
+from taskcond.sim.scene import TABLE
+from taskcond.tasks.free import FreeTask
+
+REACH = 0.95
+"""Reach (m) of the Panda's end effector (between the fingertips) from its shoulder: 0.855 m to the
+flange plus the hand; farther goals are refused."""
+SHOULDER = np.array([0.0, 0.0, 0.333])
+"""Position (m, world frame) of the Panda's shoulder (joint 2) with the base at the origin."""
+VIDEO_EVERY = 2
+"""Record every n-th control step."""
+KINOVA_STILL = 1e-4
+"""A demonstration step whose Kinova commands vary less than this (m, quaternion units, gripper) is a
+Franka-only demonstration: the Kinova held still."""
+
+
+LYING = math.cos(math.radians(45.0))
+"""A free object whose upright axis has a world-z component below this (tilted more than 45°) lies."""
+
+
+def _observation(info: EnvironmentInfo, round_: frozenset[str], lying: frozenset[str]) -> Observation:
+    return Observation(
+        predicates=info.predicates,
+        centers={name: box.center for name, box in info.boxes.items()},
+        touches=tuple(Touch(c.a, c.b, c.position) for c in info.contacts),
+        boxes={name: (box.lower, box.upper) for name, box in info.boxes.items()},
+        round=round_,
+        lying=lying,
+    )
+
+
+SWEEP_WITHIN = 0.05
+"""Distance (m) up to which :meth:`KitchenWorld.sweep` measures the arm's clearance."""
+
+FLAT = 0.02
+"""Perceived height (m) under which a soft body lies flat on the table. Its centre's height is then the
+height at which it rests (:attr:`~taskcond.sim.cloth.ClothSpec.collision_margin` above the table top), not
+the perceived one: for a layer a few millimetres thick the perceived height is the perception noise
+(σ = 5 mm by default) and the bumps of what lies on it, and LHT4's fold grips the cloth within a 16 mm
+window of fingertip heights."""
+
+
+class KitchenWorld:
+    """A :class:`KitchenEnv` seen through the environment-information layer (§III-A.2).
+
+    Arms: the Franka (``gripper``) and, in the dual-arm scene, the Kinova Gen3 (``kinova gripper``); a
+    command for the Franka alone leaves the Kinova holding its last command.
+
+    Args:
+        env: the environment, already reset.
+        noise_sigma: Gaussian noise (m) on every perceived centre and box coordinate (the paper's method).
+        seed: seed of the perception noise.
+        recorder: video of every :data:`VIDEO_EVERY`-th control step, if given.
+    """
+
+    def __init__(
+        self,
+        env: KitchenEnv,
+        noise_sigma: float = 0.0,
+        seed: int | None = None,
+        recorder: VideoRecorder | None = None,
+    ) -> None:
+        self.env = env
+        self.dt = env.dt
+        self.recorder = recorder
+        description = env.scene.description()
+        self.perception = Perception(
+            description, PerceptionConfig(noise_sigma=noise_sigma, check_visibility=False)
+        )
+        self._owner = self.perception.owners
+        self._contact_distance = self.perception.config.contact_distance
+        """Contact points farther apart (m) are not contacts: the perceiver's rule."""
+        self._rng = np.random.default_rng(seed)
+        self._objects = tuple(b.name for b in description.bodies if b.kind != "robot")
+        self._free = (
+            *env.scene.free_objects,
+            *(("cloth",) if getattr(env.scene, "cloth", None) is not None else ()),
+        )
+        self._arms = ("gripper",) if env.kinova is None else ("gripper", KINOVA_GRIPPER)
+        self._bodies = (env.robot.body,) if env.kinova is None else (env.robot.body, env.kinova.body_id)
+        self._kinova_command: np.ndarray | None = None
+        cloth = env.scene.config.cloth if getattr(env.scene, "cloth", None) is not None else None
+        self._rest = {} if cloth is None else {"cloth": cloth.collision_margin}
+        """Soft body → the height (m) of its centre lying flat on the table (:data:`FLAT`)."""
+        self._joints = tuple(env.scene.joints)
+        self._interiors = tuple(env.scene.interiors)
+        self._round = frozenset(
+            name
+            for name, (spec, _) in env.scene.config.free_objects.items()
+            if isinstance(spec, BottleSpec | VesselSpec)
+        )
+        """Free objects of a turned-about-their-axis shape: cylinders (bottle, can) and vessels (bowl, mug:
+        held by the wall, which the mug's handle leaves free on most sides)."""
+        self.env_seconds = 0.0
+        self._observed: tuple[int, Observation] | None = None
+        """Wall-clock seconds spent inside the environment's step (IK and physics)."""
+
+    @property
+    def time(self) -> float:
+        return self.env.steps * self.env.dt
+
+    @property
+    def objects(self) -> tuple[str, ...]:
+        return self._objects
+
+    @property
+    def arms(self) -> tuple[str, ...]:
+        return self._arms
+
+    @property
+    def ground(self) -> tuple[str, ...]:
+        return (TABLE,)
+
+    def observe(self) -> Observation:
+        """Environment information now; repeated calls without a control step in between return the same
+        observation (same noise draw), as a real robot's perception would until something moves."""
+        if self._observed is None or self._observed[0] != self.env.steps:
+            info = self.perception.observe(self._rng)
+            self._observed = (self.env.steps, _observation(info, self._round, self._lying()))
+        return self._observed[1]
+
+    def _lying(self) -> frozenset[str]:
+        """The free objects tilted more than 45° from upright (:data:`LYING`), from their poses."""
+        lying = []
+        for name in self.env.scene.free_objects:
+            _, orn = self.env.scene.pose(name)
+            up = p.getMatrixFromQuaternion(orn)[8]  # world z of the object's own z axis
+            if up < LYING:
+                lying.append(name)
+        return frozenset(lying)
+
+    def touches(self) -> tuple[Touch, ...]:
+        """Contacts of the arms (all of an arm's links are its gripper) and of whatever they touch with
+        the bodies around, from PyBullet's contact points of the last step: only what Alg. 2 checks."""
+        robots = set(self._bodies)
+        client = self.env.scene.client
+        points = [pt for r in self._bodies for pt in p.getContactPoints(bodyA=r, physicsClientId=client)]
+        touched = {pt[2] for pt in points} - robots
+        for body in touched:  # its other contacts; those with an arm are already in ``points``
+            points += [
+                pt for pt in p.getContactPoints(bodyA=body, physicsClientId=client) if pt[2] not in robots
+            ]
+        merged: dict[frozenset[str], list[np.ndarray]] = {}
+        names: dict[frozenset[str], tuple[str, str]] = {}
+        for pt in points:
+            a, b = self._owner.get((pt[1], pt[3])), self._owner.get((pt[2], pt[4]))
+            if a is None or b is None or a == b or pt[8] > self._contact_distance:
+                continue
+            key = frozenset((a, b))
+            names.setdefault(key, (min(a, b), max(a, b)))
+            merged.setdefault(key, []).append((np.array(pt[5]) + np.array(pt[6])) / 2.0)
+        return tuple(Touch(*names[k], np.mean(v, axis=0)) for k, v in merged.items())
+
+    def locate(self, name: str, observation: Observation) -> np.ndarray | None:
+        """The perceived centre; a soft body perceived flatter than :data:`FLAT` at its resting height."""
+        if name == "position":
+            target = self.env.target
+            return None if not np.any(target) else np.asarray(target, float).copy()
+        centre = observation.centers.get(name)
+        rest = self._rest.get(name)
+        if centre is None or rest is None:
+            return centre
+        lower, upper = observation.boxes[name]
+        if upper[2] - lower[2] >= FLAT:
+            return centre
+        return np.array([centre[0], centre[1], rest])
+
+    def affords(self, primitive: str, objects: tuple[str, ...]) -> str | None:
+        unknown = [o for o in objects if o not in self._objects]
+        if unknown:
+            return f"{', '.join(map(repr, unknown))} not in the scene (objects: {', '.join(self._objects)})"
+        free, joints, interiors = self._free, self._joints, self._interiors
+        if primitive in ("open", "close") and objects[0] not in joints:
+            return f"{objects[0]!r} has no lid, door or drawer (containers: {', '.join(joints)})"
+        fixed = [objects[k] for k in get_primitive(primitive).movable if objects[k] not in free]
+        if fixed:
+            return f"{fixed[0]!r} cannot be moved (movable objects: {', '.join(free)})"
+        if primitive == "move_into" and objects[1] not in interiors:
+            return f"{objects[1]!r} is not a container (containers: {', '.join(interiors)})"
+        if primitive == "fold" and ("cloth" not in self._objects or len(self._arms) < 2):
+            return "folding needs the cloth and two arms, which this scene does not have"
+        return None
+
+    def reach_error(self, position: np.ndarray) -> str | None:
+        position = np.asarray(position, float)
+        for arm in range(len(position) // 3):
+            point = position[3 * arm : 3 * arm + 3]
+            if arm == 0:
+                shoulder, reach = SHOULDER, REACH
+            else:
+                assert self.env.kinova is not None
+                shoulder, reach = self.env.kinova.shoulder, self.env.kinova.reach
+            distance = float(np.linalg.norm(point - shoulder))
+            if distance > reach:
+                return f"{distance:.2f} m from the {self._arms[arm]}'s shoulder, it reaches {reach:.2f} m"
+            if point[2] < -0.05:
+                return f"{point[2]:.2f} m is below the table"
+        return None
+
+    def sweep(self, positions: np.ndarray, orientations: np.ndarray, ignore: tuple[str, ...]) -> float:
+        """The arm's IK for each pose in turn, each seeded by the last (the current joints first), checked
+        against the scene's collision shapes of the named bodies but ``ignore`` and the table (:attr:`ground`)
+        (:meth:`Franka.clearance`)."""
+        robot = self.env.robot
+        bodies = [
+            (b.body_id, b.link_index)
+            for b in self.env.scene.description().bodies
+            if b.kind != "robot" and b.name not in (*ignore, *self.ground)
+        ]
+        seed = robot.joint_positions()
+        qs = []
+        for position, orientation in zip(positions, orientations, strict=True):
+            seed = robot.ik(position, orientation, seed)
+            qs.append(seed)
+        return robot.clearance(qs, bodies, SWEEP_WITHIN)
+
+    def ee_pose(self, arms: int = 1) -> tuple[np.ndarray, np.ndarray]:
+        ee = self.env.robot.ee_pose()
+        if arms < 2:
+            return ee.position, ee.orientation
+        assert self.env.kinova is not None
+        position, orientation = self.env.kinova.ee_pose()
+        return np.concatenate([ee.position, position]), np.concatenate([ee.orientation, orientation])
+
+    def step(self, position: np.ndarray, orientation: np.ndarray, gripper: float) -> str | None:
+        start = time.perf_counter()
+        action = np.concatenate([position[:3], orientation[:4], [gripper]])
+        if len(position) >= 6:
+            self._kinova_command = np.concatenate([position[3:6], orientation[4:8], [gripper]])
+        if self._kinova_command is not None:  # once moved, the Kinova holds its last command
+            action = np.concatenate([action, self._kinova_command])
+        _, _, terminated, _, info = self.env.step(action)
+        self.env_seconds += time.perf_counter() - start
+        if self.recorder is not None and self.env.steps % VIDEO_EVERY == 0:
+            self.recorder.add(self.env.render())
+        return info["failure"] if terminated else None
+
+
+@cache
+def scene_objects(
+    scene: str = "kitchen",
+) -> tuple[tuple[str, ...], Callable[[str, tuple[str, ...]], str | None]]:
+    """The object names of a scene (:data:`SCENES`) and what each primitive affords there (for
+    decomposition); built once per scene and process."""
+    env = KitchenEnv(FreeTask("", scene=scene))
+    try:
+        world = KitchenWorld(env)
+        objects, affords = world.objects, world.affords
+        return objects, affords
+    finally:
+        env.close()

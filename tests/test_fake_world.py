@@ -1,0 +1,267 @@
+"""The executor core driven through a small pure-Python :class:`~taskcond.execution.world.World`: Alg. 1
+(a pre-condition raises the primitive that achieves it), Alg. 2 (an unallowed collision backs the DMP up and
+moves its goal) and the look-ahead planner, in milliseconds and without a simulator.
+
+:class:`TableTopWorld` is also the porting guide for a new world: the members below are all the executor
+asks of one (:class:`~taskcond.execution.world.World`).
+"""
+
+from __future__ import annotations
+
+from itertools import pairwise
+
+import numpy as np
+
+from taskcond.conditions import Collision, ContainerState, GripperState, Predicate, TaskCondition
+from taskcond.execution.config import ExecutionConfig
+from taskcond.execution.events import EventKind
+from taskcond.execution.executor import Executor
+from taskcond.execution.planner import repair
+from taskcond.execution.skills import Demonstration, SkillLibrary, learn_skill, target_object
+from taskcond.execution.world import Observation, Touch
+
+DOWN = np.array([1.0, 0.0, 0.0, 0.0])
+"""The hand pointing down, xyzw."""
+GRASP_HEIGHT = 0.07
+"""Height (m) of the hand above an object's centre when it grasps it."""
+HANDLE_HEIGHT = 0.10
+"""Height (m) of the box's lid handle above the box's centre."""
+
+
+class TableTopWorld:
+    """One arm, a bottle, a can and a box with a lid on a table; the hand goes exactly where it is told.
+
+    A closing gripper within 3 cm of an object's grasp point holds it (the object then follows the hand);
+    an opening one lets it go onto the table. A closed gripper at the lid's handle that rises 8 cm opens
+    the box. The hand touching the can (within 4 cm of its top) is a contact.
+    """
+
+    dt = 1 / 30
+    arms = ("gripper",)
+    ground = ("table",)
+    objects = ("table", "bottle", "can", "box")
+
+    def __init__(self, hand=(0.3, 0.0, 0.5), holding: str | None = None, can=(0.6, -0.3, 0.06)) -> None:
+        self.hand = np.array(hand, float)
+        self.centers = {
+            "bottle": np.array([0.5, 0.1, 0.06]),
+            "can": np.array(can),
+            "box": np.array([0.4, -0.2, 0.05]),
+        }
+        self.held = holding
+        self.box_open = False
+        self.lid_gripped_at: float | None = None
+        self.steps = 0
+        if holding is not None:
+            self.centers[holding] = self.hand - [0.0, 0.0, GRASP_HEIGHT]
+
+    # ------------------------------------------------------------------------------ World protocol
+    @property
+    def time(self) -> float:
+        return self.steps * self.dt
+
+    def observe(self) -> Observation:
+        preds: set[Predicate] = {GripperState(self.held), ContainerState("box", self.box_open)}
+        boxes = {n: (c - 0.03, c + 0.03) for n, c in self.centers.items()}
+        return Observation(
+            frozenset(preds), {n: c.copy() for n, c in self.centers.items()}, self.touches(), boxes
+        )
+
+    def touches(self) -> tuple[Touch, ...]:
+        can_top = self.centers["can"] + [0.0, 0.0, 0.06]
+        if np.linalg.norm(self.hand - can_top) < 0.04:
+            return (Touch("gripper", "can", can_top),)
+        return ()
+
+    def locate(self, name: str, observation: Observation) -> np.ndarray | None:
+        return observation.centers.get(name)
+
+    def affords(self, primitive: str, objects: tuple[str, ...]) -> str | None:
+        if not set(objects) <= set(self.objects):
+            return f"no {objects} here"
+        if primitive in ("open", "close") and objects != ("box",):
+            return f"{objects[0]} has nothing to open"
+        return None
+
+    def reach_error(self, position: np.ndarray) -> str | None:
+        return None
+
+    def sweep(self, positions: np.ndarray, orientations: np.ndarray, ignore: tuple[str, ...]) -> float:
+        return 0.05
+
+    def ee_pose(self, arms: int = 1) -> tuple[np.ndarray, np.ndarray]:
+        return self.hand.copy(), DOWN.copy()
+
+    def step(self, position: np.ndarray, orientation: np.ndarray, gripper: float) -> str | None:
+        self.hand = np.asarray(position, float)[:3].copy()
+        self.steps += 1
+        closed = gripper > 0.5
+        if closed and self.held is None:
+            for name in ("bottle", "can"):
+                if np.linalg.norm(self.hand - self.centers[name] - [0, 0, GRASP_HEIGHT]) < 0.03:
+                    self.held = name
+            handle = self.centers["box"] + [0.0, 0.0, HANDLE_HEIGHT]
+            if self.lid_gripped_at is None and np.linalg.norm(self.hand - handle) < 0.03:
+                self.lid_gripped_at = float(self.hand[2])
+        if not closed:
+            if self.held is not None:
+                self.centers[self.held][2] = 0.06  # onto the table
+            self.held, self.lid_gripped_at = None, None
+        if self.held is not None:
+            self.centers[self.held] = self.hand - [0.0, 0.0, GRASP_HEIGHT]
+        if self.lid_gripped_at is not None and self.hand[2] > self.lid_gripped_at + 0.08:
+            self.box_open = True
+        return None
+
+
+def _demo(task: str, path: list[tuple[np.ndarray, float, int]], target_center: np.ndarray) -> Demonstration:
+    """A demonstration through ``path``: (waypoint, gripper command while going there, samples)."""
+    positions, gripper = [path[0][0][None]], [path[0][1]]
+    for (a, _, _), (b, command, n) in pairwise(path):
+        s = np.linspace(0, 1, n + 1)[1:]
+        s = s * s * (3 - 2 * s)
+        positions.append(a + s[:, None] * (b - a))
+        gripper += [command] * n
+    positions_ = np.concatenate(positions)
+    return Demonstration(
+        task_name=task,
+        task_id=task.replace(" ", "-"),
+        times=np.arange(len(positions_)) / 30,
+        positions=positions_,
+        orientations=np.tile(DOWN, (len(positions_), 1)),
+        gripper=np.array(gripper),
+        target=target_object(task),
+        target_center=target_center,
+    )
+
+
+def _library() -> SkillLibrary:
+    """Grasp the bottle (from above, close, lift), release it (open, rise), open the box (grip the handle,
+    lift the lid, let go): each demonstrated once."""
+    bottle, box = np.array([0.5, 0.1, 0.06]), np.array([0.4, -0.2, 0.05])
+    start, up = np.array([0.3, 0.0, 0.5]), np.array([0.0, 0.0, 1.0])
+    grip = bottle + GRASP_HEIGHT * up
+    handle = box + HANDLE_HEIGHT * up
+    demos = [
+        _demo(
+            "grasp bottle",
+            [
+                (start, 0.0, 0),
+                (grip + 0.12 * up, 0.0, 60),
+                (grip, 0.0, 30),
+                (grip, 1.0, 18),
+                (grip + 0.12 * up, 1.0, 30),
+            ],
+            bottle,
+        ),
+        _demo("release bottle", [(grip, 1.0, 0), (grip, 0.0, 18), (grip + 0.1 * up, 0.0, 30)], bottle),
+        _demo(
+            "open box",
+            [
+                (start, 0.0, 0),
+                (handle + 0.1 * up, 0.0, 60),
+                (handle, 0.0, 30),
+                (handle, 1.0, 18),
+                (handle + 0.15 * up, 1.0, 30),
+                (handle + 0.15 * up, 0.0, 18),
+            ],
+            box,
+        ),
+    ]
+    library = SkillLibrary()
+    for demo in demos:
+        library.add(learn_skill(demo))
+    return library
+
+
+CONDITIONS = {
+    "grasp bottle": TaskCondition(
+        "grasp bottle",
+        ("bottle", "gripper"),
+        (GripperState(None),),
+        (GripperState("bottle"),),
+        (Collision("gripper", "bottle"),),
+    ),
+    "release bottle": TaskCondition(
+        "release bottle", ("bottle", "gripper"), (GripperState("bottle"),), (GripperState(None),), ()
+    ),
+    "open box": TaskCondition(
+        "open box",
+        ("box", "gripper"),
+        (GripperState(None), ContainerState("box", False)),
+        (ContainerState("box", True),),
+        (Collision("gripper", "box"),),
+    ),
+    "move bottle into box": TaskCondition(
+        "move bottle into box",
+        ("bottle", "box", "gripper"),
+        (GripperState("bottle"), ContainerState("box", True)),
+        (GripperState("bottle"),),
+        (Collision("gripper", "bottle"),),
+    ),
+}
+
+
+class TableConditions:
+    """A condition source that reads :data:`CONDITIONS`."""
+
+    name = "table"
+
+    def condition(self, task_name: str) -> TaskCondition:
+        return CONDITIONS[task_name]
+
+
+CONFIG = ExecutionConfig(approach_distance=None)
+
+
+def test_the_fake_world_is_a_world_the_executor_runs_a_grasp_in():
+    world = TableTopWorld()
+    result = Executor(world, _library(), "env", TableConditions(), CONFIG).run(["grasp bottle"])
+    assert result.completed and result.failure is None
+    assert world.held == "bottle"
+    assert [e.kind for e in result.events if e.kind == EventKind.POST] == [EventKind.POST]
+
+
+def test_alg1_raises_the_release_that_frees_the_hand_before_opening_the_box():
+    world = TableTopWorld(hand=(0.5, 0.1, 0.13), holding="bottle")
+    result = Executor(world, _library(), "env", TableConditions(), CONFIG).run(["open box"])
+    raised = [e for e in result.events if e.kind == EventKind.RAISE]
+    assert [e.task for e in raised] == ["release bottle"]
+    assert raised[0].data["pre_condition"] == "gripper not grasping"
+    assert result.raised == 1 and result.completed
+    assert world.held is None and world.box_open
+
+
+def test_without_conditions_nothing_is_raised_and_the_open_drops_what_the_hand_holds():
+    world = TableTopWorld(hand=(0.5, 0.1, 0.13), holding="bottle")
+    result = Executor(world, _library(), "none", None, CONFIG).run(["open box"])
+    assert result.raised == 0 and not [e for e in result.events if e.kind == EventKind.RAISE]
+    assert world.held is None and world.centers["bottle"][2] == 0.06  # dropped, not released by a step
+
+
+def test_alg2_backs_up_and_moves_the_goal_away_from_an_unallowed_contact():
+    can = (0.46, 0.08, 0.24)  # on a shelf, its top on the hand's way to above the bottle
+    world = TableTopWorld(can=can)
+    result = Executor(world, _library(), "env", TableConditions(), CONFIG).run(["grasp bottle"])
+    collisions = [e for e in result.events if e.kind == EventKind.COLLISION]
+    assert collisions and result.adjustments >= 1
+    assert collisions[0].data["collision"] == ["gripper", "can"]
+    shift = np.array(collisions[0].data["shift"])
+    assert shift[2] == 0.0 and 0 < np.linalg.norm(shift) <= CONFIG.max_goal_shift + 1e-9
+    assert shift[:2] @ (np.array(can[:2]) - [0.5, 0.1]) < 0  # away from the contact
+
+
+def test_the_planner_opens_the_box_before_the_hand_is_full():
+    world = TableTopWorld()
+    fixed = repair(
+        ["grasp bottle", "move bottle into box"], world.observe().predicates, CONDITIONS.get, world.affords
+    )
+    assert fixed.steps == ("open box", "grasp bottle", "move bottle into box")
+    assert fixed.impossible is None
+
+
+def test_the_planner_refuses_what_the_world_does_not_afford():
+    world = TableTopWorld()
+    assert world.affords("open", ("bottle",)) == "bottle has nothing to open"
+    fixed = repair(["grasp bottle"], world.observe().predicates, CONDITIONS.get, world.affords)
+    assert fixed.steps == ("grasp bottle",) and not fixed.changes
