@@ -7,9 +7,13 @@ import pytest
 
 @pytest.fixture(scope="session")
 def embedded_backend():
-    """The real embedded llama.cpp backend with the default model, without the response cache."""
+    """The real embedded llama.cpp backend with the default model on the default runtime (the first
+    installed of xllamacpp and llama-cpp-python, or ``$TASKCOND_EMBEDDED_RUNTIME``), without the response
+    cache."""
+    from taskcond.llm.config import embedded_runtime
     from taskcond.llm.embedded import EmbeddedBackend
+    from taskcond.llm.xllamacpp_backend import XLlamaCppBackend
 
-    backend = EmbeddedBackend()
+    backend = XLlamaCppBackend() if embedded_runtime() == "xllamacpp" else EmbeddedBackend()
     backend._load()
     return backend

@@ -186,7 +186,8 @@ class EmbeddedBackend:
             import llama_cpp
         except ImportError:
             raise LLMError(
-                f"llama-cpp-python is missing; install it with pip install 'taskcond[{self.spec.extra}]'",
+                "llama-cpp-python is missing; install it with pip install 'taskcond[embedded-native]' (or "
+                "use the default runtime: unset TASKCOND_EMBEDDED_RUNTIME)",
                 backend=self.name,
             ) from None
         path = model_path(self.spec)

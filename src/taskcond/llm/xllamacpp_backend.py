@@ -92,7 +92,7 @@ class _UnixHTTPConnection(http.client.HTTPConnection):
         self.sock.connect(self.socket_path)
 
 
-def _load_module() -> Any:
+def load_xllamacpp() -> Any:
     """Import xllamacpp, or raise a one-line :class:`LLMError` saying what to install."""
     try:
         import xllamacpp
@@ -159,7 +159,7 @@ class XLlamaCppBackend:
         refuses every request but ``/health`` and ``/models`` without this process's random key."""
         if self._server is not None:
             return self._server
-        xllamacpp = _load_module()
+        xllamacpp = load_xllamacpp()
         path = model_path(self.spec)
         start = time.perf_counter()
         private = tempfile.mkdtemp(prefix="taskcond-llm-")  # mode 0700
@@ -272,7 +272,7 @@ class XLlamaCppBackend:
         }
         digest = hashlib.sha256(json.dumps(meta, sort_keys=True).encode())
         digest.update(json.dumps(list(tokens)).encode())
-        return f"{digest.hexdigest()}.bin"
+        return f"{digest.hexdigest()}.state"
 
     def _restore(self, slot: int, tokens: list[int]) -> bool:
         """Load the state of exactly ``tokens`` evaluated into the slot, if the prefix directory has it."""
@@ -323,7 +323,7 @@ class XLlamaCppBackend:
             return
         finally:
             local.unlink(missing_ok=True)
-        prune_states(self.prefix_dir, "*.bin", self.prefix_bytes, keep=target)
+        prune_states(self.prefix_dir, "*.state", self.prefix_bytes, keep=target)
 
     def _prepare(self, slot: int, tokens: list[int], starts: list[int], shared_messages: int) -> None:
         """Have the slot hold every segment of the prompt but the last, evaluated segment by segment from
