@@ -10,10 +10,8 @@ def embedded_backend():
     """The real embedded llama.cpp backend with the default model on the default runtime (the first
     installed of xllamacpp and llama-cpp-python, or ``$TASKCOND_EMBEDDED_RUNTIME``), without the response
     cache."""
-    from taskcond.llm.config import embedded_runtime
-    from taskcond.llm.embedded import EmbeddedBackend
-    from taskcond.llm.xllamacpp_backend import XLlamaCppBackend
+    from taskcond.llm.config import embedded_backend as make
 
-    backend = XLlamaCppBackend() if embedded_runtime() == "xllamacpp" else EmbeddedBackend()
+    backend = make()
     backend._load()
     return backend

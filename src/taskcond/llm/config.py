@@ -128,19 +128,31 @@ class LLMConfig:
         return cfg
 
 
+def embedded_backend(
+    model: str = DEFAULT_EMBEDDED_MODEL,
+    n_threads: int | None = None,
+    prefix_dir: Path | None = None,
+    runtime: str | None = None,
+) -> ChatBackend:
+    """The embedded backend of ``model`` on ``runtime`` (:func:`embedded_runtime` when None), not loaded
+    yet and without the response cache."""
+    if embedded_runtime(runtime) == "xllamacpp":
+        from taskcond.llm.xllamacpp_backend import XLlamaCppBackend
+
+        return XLlamaCppBackend(model, n_threads=n_threads, prefix_dir=prefix_dir)
+    from taskcond.llm.embedded import EmbeddedBackend
+
+    return EmbeddedBackend(model, n_threads=n_threads, prefix_dir=prefix_dir)
+
+
 def make_backend(config: LLMConfig) -> ChatBackend:
     """Build the configured backend, wrapped in the on-disk response cache unless ``config.cache`` is off."""
     backend: ChatBackend
     if config.backend == "embedded":
         runtime = config.runtime or embedded_runtime()
-        if runtime == "xllamacpp":
-            from taskcond.llm.xllamacpp_backend import XLlamaCppBackend as Embedded
-        else:
-            from taskcond.llm.embedded import EmbeddedBackend as Embedded
         prefixes = (config.cache_dir or cache_dir()) / "prefixes" / runtime if config.cache else None
-        backend = Embedded(
-            config.model or DEFAULT_EMBEDDED_MODEL, n_threads=config.threads, prefix_dir=prefixes
-        )
+        model = config.model or DEFAULT_EMBEDDED_MODEL
+        backend = embedded_backend(model, config.threads, prefixes, runtime)
     else:
         from taskcond.llm.openai_backend import OpenAIBackend
 
