@@ -309,16 +309,17 @@ class XLlamaCppBackend:
         target = self.prefix_dir / name
         if target.exists():
             return
-        self._http("POST", f"/slots/{slot}?action=save", {"filename": name})
         local = self._saves / name
+        tmp = None
         try:
+            self._http("POST", f"/slots/{slot}?action=save", {"filename": name})
             self.prefix_dir.mkdir(parents=True, exist_ok=True)
             fd, tmp = tempfile.mkstemp(dir=self.prefix_dir, suffix=".tmp")
             os.close(fd)
             shutil.move(local, tmp)
             os.replace(tmp, target)
-        except OSError:
-            with contextlib.suppress(OSError, UnboundLocalError):
+        except (OSError, LLMError):
+            if tmp is not None:
                 Path(tmp).unlink(missing_ok=True)
             return
         finally:
