@@ -178,7 +178,7 @@ class XLlamaCppBackend:
         p.cache_prompt = True
         p.cache_ram_mib = 0  # no host prompt cache: a slot holds exactly what this backend sent it
         p.n_cache_reuse = 0
-        p.slot_save_path = str(self._saves)
+        p.slot_save_path = f"{self._saves}{os.sep}"  # the server appends the file name as it is
         p.ui = False
         p.warmup = False
         p.verbosity = -1
