@@ -16,7 +16,8 @@ one per conversation, as the native backend's two contexts); llama.cpp's slot sa
 shared prefix of a request on disk for the next process (the native backend's prefix states). Greedy
 answers without a grammar are decoded with llama.cpp's n-gram speculation on the prompt and the answer so
 far (``ngram-simple``: the same idea as the native backend's prompt-lookup drafts, Saxena 2023; speculative
-decoding, Leviathan et al. 2023). Figures in BENCHMARKS.md, "Embedded runtimes".
+decoding, Leviathan et al. 2023); llama.cpp drafts every request, each draft checked by that request's own
+sampler and grammar. Figures in BENCHMARKS.md, "Embedded runtimes".
 """
 
 from __future__ import annotations
@@ -111,8 +112,9 @@ class XLlamaCppBackend:
     :data:`taskcond.llm.models.EMBEDDED_MODELS`.
 
     Attributes:
-        draft: decode greedy answers without a grammar with n-gram drafts from the prompt and the answer;
-            ``drafted`` and ``accepted`` count the tokens proposed and kept.
+        draft: decode with n-gram drafts from the prompt and the answer (set when the server starts: llama.cpp
+            applies its speculation to every request, checked by the request's own sampler, grammar
+            included); ``drafted`` and ``accepted`` count the tokens proposed and kept.
         prefix_dir: directory of the on-disk prefix states (``None``: none are kept), at most
             ``prefix_bytes`` bytes of them.
         prefix_hits: how many requests started from a prefix state read from disk.
@@ -387,8 +389,6 @@ class XLlamaCppBackend:
         }
         if request.grammar:
             body["grammar"] = request.grammar
-        if not (greedy and self.draft and not request.grammar):
-            body["speculative.n_max"] = 0
         out = self._complete(body)
         self._held[slot] = tokens  # and some of the answer
         self._exact[slot] = False
