@@ -4,22 +4,24 @@ VENV ?= .venv
 BIN := $(VENV)/bin
 EXTRAS ?= all,dev
 
-.PHONY: install demo test lint format bench clean
-
-# llama-cpp-python compiles llama.cpp for this CPU on install. On an Intel CPU with AMX (Sapphire Rapids and
-# later) that native build uses AMX kernels that crash the first evaluation (ggml-org/llama.cpp#20824), so
-# there it is compiled without AMX, every other native instruction kept. It is built apart and without pip's
-# wheel cache, so that a wheel cached from another build is never reused.
-NO_AMX := $(if $(shell grep -m1 -o amx_tile /proc/cpuinfo 2>/dev/null),-mno-amx-tile -mno-amx-int8 -mno-amx-bf16)
-LLAMA_CPP := $(shell grep -m1 -o '"llama-cpp-python[^"]*"' pyproject.toml)
+.PHONY: install install-native demo test lint format bench clean
 
 $(VENV)/.installed: pyproject.toml
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/pip install --quiet --upgrade pip
-	@echo "Installing taskcond[$(EXTRAS)] (the first time, llama-cpp-python compiles: about 5 min on 2 cores)"
-	CFLAGS="$(NO_AMX)" CXXFLAGS="$(NO_AMX)" $(BIN)/pip install --progress-bar off --no-cache-dir $(LLAMA_CPP)
 	$(BIN)/pip install --progress-bar off -e ".[$(EXTRAS)]"
 	touch $@
+
+# The opt-in native runtime: llama-cpp-python compiles llama.cpp for this CPU. On an Intel CPU with AMX
+# (Sapphire Rapids and later) that native build uses AMX kernels that crash the first evaluation
+# (ggml-org/llama.cpp#20824), so there it is compiled without AMX, every other native instruction kept. It
+# is built without pip's wheel cache, so that a wheel cached from another build is never reused. Then
+# TASKCOND_EMBEDDED_RUNTIME=llama-cpp-python selects it.
+NO_AMX := $(if $(shell grep -m1 -o amx_tile /proc/cpuinfo 2>/dev/null),-mno-amx-tile -mno-amx-int8 -mno-amx-bf16)
+LLAMA_CPP := $(shell grep -m1 -o '"llama-cpp-python[^"]*"' pyproject.toml)
+
+install-native: install  ## also compile llama-cpp-python, the opt-in native runtime (about 5 min on 2 cores)
+	CFLAGS="$(NO_AMX)" CXXFLAGS="$(NO_AMX)" $(BIN)/pip install --progress-bar off --no-cache-dir $(LLAMA_CPP)
 
 install: $(VENV)/.installed  ## create .venv and install taskcond with everything the tests need
 

@@ -25,7 +25,7 @@ from taskcond.evaluation import evaluate_conditions
 from taskcond.examples import reference_condition
 from taskcond.generator import PROMPT_VERSION, ConditionGenerator, ExampleOrder
 from taskcond.llm.cache import CachedBackend
-from taskcond.llm.embedded import EmbeddedBackend
+from taskcond.llm.config import embedded_backend
 from taskcond.llm.models import DEFAULT_EMBEDDED_MODEL, get_embedded_model, model_path
 from taskcond.primitives import PRIMITIVES, parse_task
 
@@ -46,7 +46,7 @@ TASKS = [
 def accuracy(args: argparse.Namespace) -> None:
     """The Table II protocol, uncached, with the given generator settings; wrong answers printed."""
     gen = ConditionGenerator(
-        EmbeddedBackend(args.model),
+        embedded_backend(args.model),
         samples=args.samples,
         prompt_version=args.prompt_version,
         example_order=args.example_order,
@@ -115,7 +115,7 @@ def main() -> None:
         model_path(spec, Path(tmp))
         assemble = time.perf_counter() - start
     with tempfile.TemporaryDirectory() as cache:
-        backend = EmbeddedBackend(args.model, prefix_dir=Path(cache) / "prefixes")
+        backend = embedded_backend(args.model, prefix_dir=Path(cache) / "prefixes")
         backend._load()
         gen = ConditionGenerator(CachedBackend(backend, Path(cache) / "responses"))
         # the first condition of a process evaluates the shared prompt prefixes and keeps them on disk; the

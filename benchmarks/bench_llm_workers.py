@@ -19,13 +19,13 @@ import time
 
 from taskcond.evaluation import EVAL_OBJECTS
 from taskcond.generator import ConditionGenerator
-from taskcond.llm.embedded import EmbeddedBackend
+from taskcond.llm.config import embedded_backend
 from taskcond.primitives import PRIMITIVES, ParsedTask
 
 
 def work(threads: int, conditions: int) -> tuple[list[float], list[str]]:
     """Seconds and condition text of each generation condition, one per primitive in registry order."""
-    generator = ConditionGenerator(EmbeddedBackend(n_threads=threads))
+    generator = ConditionGenerator(embedded_backend(n_threads=threads))
     seconds, answers = [], []
     for pid in list(PRIMITIVES)[:conditions]:
         result = generator.generate(ParsedTask(PRIMITIVES[pid], EVAL_OBJECTS[pid][0]), order_seed=0)

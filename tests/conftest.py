@@ -44,10 +44,12 @@ def _project_only(tmp_path_factory: pytest.TempPathFactory):
 
 @pytest.fixture(scope="session")
 def embedded_backend():
-    """The real embedded llama.cpp backend with the default model, without the response cache."""
-    from taskcond.llm.embedded import EmbeddedBackend
+    """The real embedded llama.cpp backend with the default model on the default runtime (the first
+    installed of xllamacpp and llama-cpp-python, or ``$TASKCOND_EMBEDDED_RUNTIME``), without the response
+    cache."""
+    from taskcond.llm.config import embedded_backend as make
 
-    backend = EmbeddedBackend()
+    backend = make()
     backend._load()
     return backend
 

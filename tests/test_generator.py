@@ -482,7 +482,10 @@ def test_embedded_drafts_keep_the_greedy_answer(embedded_backend, monkeypatch):
     prompt (whose answer the repeated own example shows, nearly all of it accepted from drafts) and a
     request cut by ``max_tokens`` get llama-cpp-python's own greedy completion, with and without drafts.
     (A free reasoning line can tip at a near tie between a batch's and a single token's floating-point
-    result, so no chain-of-thought answer is compared here.)"""
+    result, so no chain-of-thought answer is compared here.) The native runtime's own decoding; the
+    xllamacpp runtime's drafts are tested in test_xllamacpp_backend.py."""
+    if not isinstance(embedded_backend, EmbeddedBackend):
+        pytest.skip("the session's embedded runtime is not llama-cpp-python")
     gen = ConditionGenerator(embedded_backend)
     requests = [
         ChatRequest(gen.messages("state", parse_task("move bowl into top drawer")), stop=("\n\n",)),

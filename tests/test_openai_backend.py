@@ -1,5 +1,6 @@
-"""The OpenAI-compatible backend against a real server on 127.0.0.1 (llama-cpp-python's own server running
-the embedded model), through the official ``openai`` SDK; plus its error paths and the config resolution."""
+"""The OpenAI-compatible backend against a real server on 127.0.0.1 (llama.cpp's own server running the
+embedded model, from the prebuilt xllamacpp runtime: ``python -m taskcond.llm.serve``), through the
+official ``openai`` SDK; plus its error paths and the config resolution."""
 
 from __future__ import annotations
 
@@ -16,7 +17,6 @@ from taskcond.examples import reference_condition
 from taskcond.generator import ConditionGenerator
 from taskcond.llm.base import ChatMessage, ChatRequest, LLMError
 from taskcond.llm.config import LLMConfig, make_backend
-from taskcond.llm.models import DEFAULT_EMBEDDED_MODEL, get_embedded_model, model_path
 from taskcond.primitives import parse_task
 
 SECRET = "sk-test-do-not-print-1234567890"
@@ -30,26 +30,26 @@ def _free_port() -> int:
 
 @pytest.fixture(scope="module")
 def server():
-    """llama_cpp.server on a free loopback port; stopped after the module's tests."""
-    pytest.importorskip("uvicorn", reason="needs the [server] extra")
+    """``taskcond.llm.serve`` on a free loopback port, with the key ``SECRET``; stopped after the module's
+    tests."""
+    pytest.importorskip("xllamacpp", reason="needs the [embedded] extra")
     port = _free_port()
-    path = model_path(get_embedded_model(DEFAULT_EMBEDDED_MODEL))
-    cmd = [sys.executable, "-m", "llama_cpp.server", "--model", str(path), "--host", "127.0.0.1",
-           "--port", str(port), "--n_ctx", "4096", "--chat_format", "chatml"]  # fmt: skip
-    proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    cmd = [sys.executable, "-m", "taskcond.llm.serve", "--port", str(port), "--api-key-env", "SERVER_KEY"]
+    env = {**os.environ, "SERVER_KEY": SECRET}
+    proc = subprocess.Popen(cmd, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     url = f"http://127.0.0.1:{port}/v1"
     deadline = time.monotonic() + 120
     while time.monotonic() < deadline:
         try:
-            urllib.request.urlopen(f"{url}/models", timeout=2)
+            urllib.request.urlopen(f"http://127.0.0.1:{port}/health", timeout=2)  # 503 while loading
             break
         except OSError:
             if proc.poll() is not None:
-                pytest.fail(f"llama_cpp.server exited with {proc.returncode}")
+                pytest.fail(f"taskcond.llm.serve exited with {proc.returncode}")
             time.sleep(0.5)
     else:
         proc.kill()
-        pytest.fail("llama_cpp.server did not start within 120 s")
+        pytest.fail("taskcond.llm.serve did not start within 120 s")
     yield url
     proc.terminate()
     proc.wait(timeout=30)
@@ -88,6 +88,15 @@ def test_without_a_grammar_the_validator_still_guarantees_the_form(server, monke
     assert set(result.condition.post_conditions) >= set(
         reference_condition(parse_task("grasp bowl")).post_conditions
     )
+
+
+@pytest.mark.server
+def test_the_server_refuses_a_wrong_key(server):
+    from taskcond.llm.openai_backend import OpenAIBackend
+
+    backend = OpenAIBackend(model="local-model", base_url=server, api_key="sk-wrong", max_retries=0)
+    with pytest.raises(LLMError, match="rejected the API key"):
+        backend.chat(ChatRequest((ChatMessage("user", "hi"),)))
 
 
 @pytest.mark.server

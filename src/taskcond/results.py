@@ -32,7 +32,8 @@ class RunConfig:
     Attributes:
         kind: ``execution`` (episodes in the suite: Tables III and IV, ``taskcond run``) or
             ``conditions`` (generated conditions scored against the references: Table II).
-        llm: the LLM backend and model, ``embedded:qwen2.5-coder-1.5b`` or ``openai:MODEL@BASE_URL``.
+        llm: the LLM backend and model, ``embedded:qwen2.5-coder-1.5b@RUNTIME-VERSION`` (the llama.cpp
+            runtime, e.g. ``xllamacpp-2026.10.11549``) or ``openai:MODEL@BASE_URL``.
         llm_model_hash: SHA-256 prefix of the embedded model's GGUF file (pinned); None for a remote model,
             whose weights the client cannot see.
         prompt_version: the prompt set of the condition generator (``taskcond/prompts/<version>``).
@@ -158,13 +159,14 @@ def llm_fields(spec: str | None, generator: Any = None) -> dict[str, Any]:
     the embedded model's pinned hash, and the settings of the condition generator ``generator`` (its
     defaults when None)."""
     from taskcond.generator import ConditionGenerator
-    from taskcond.llm.config import LLMConfig
+    from taskcond.llm.config import LLMConfig, embedded_runtime, runtime_label
     from taskcond.llm.models import DEFAULT_EMBEDDED_MODEL, get_embedded_model
 
     cfg = LLMConfig.load(spec)
     if cfg.backend == "embedded":
         model = get_embedded_model(cfg.model or DEFAULT_EMBEDDED_MODEL)
-        name, digest = f"embedded:{model.name}", model.sha256[:16]
+        runtime = runtime_label(cfg.runtime or embedded_runtime())
+        name, digest = f"embedded:{model.name}@{runtime}", model.sha256[:16]
     else:
         name, digest = f"openai:{cfg.model}" + (f"@{cfg.base_url}" if cfg.base_url else ""), None
     settings = {

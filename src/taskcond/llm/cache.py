@@ -1,7 +1,9 @@
 """On-disk response cache: a repeated request is answered from disk, free and identical.
 
 The key is the SHA-256 of the backend kind, the model, the whole request (messages, sampling settings,
-grammar, stop strings) and the cache format version; one small JSON file per answer.
+grammar, stop strings) and the cache format version, and of the backend's ``runtime`` where it has one (the
+xllamacpp embedded runtime and its version; the llama-cpp-python runtime has none, so that the answers it
+cached before the runtimes were told apart keep their keys); one small JSON file per answer.
 """
 
 from __future__ import annotations
@@ -35,6 +37,9 @@ class CachedBackend:
             "endpoint": getattr(self.backend, "endpoint", None),
             "request": request.key_material(),
         }
+        runtime = getattr(self.backend, "runtime", None)
+        if runtime is not None:
+            material["runtime"] = runtime
         return hashlib.sha256(json.dumps(material, sort_keys=True).encode()).hexdigest()
 
     def _path(self, key: str) -> Path:

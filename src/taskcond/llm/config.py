@@ -12,15 +12,20 @@ The config file is ``$TASKCOND_CONFIG`` or ``~/.config/taskcond/config.toml``::
     timeout = 60
     grammar_field = "grammar"            # constrained decoding on llama.cpp servers
     cache = true
+    runtime = "xllamacpp"                # the embedded backend's llama.cpp: xllamacpp or llama-cpp-python
 
-For the OpenAI backend, ``OPENAI_BASE_URL`` and ``TASKCOND_OPENAI_MODEL`` override the file.
+For the OpenAI backend, ``OPENAI_BASE_URL`` and ``TASKCOND_OPENAI_MODEL`` override the file; for the
+embedded one, ``TASKCOND_EMBEDDED_RUNTIME`` overrides ``runtime``. Without either, the embedded runtime is
+the first of :data:`EMBEDDED_RUNTIMES` that is installed.
 """
 
 from __future__ import annotations
 
+import importlib.util
 import os
 import tomllib
 from dataclasses import dataclass, replace
+from importlib import metadata
 from pathlib import Path
 
 from taskcond.llm.base import ChatBackend, LLMError
@@ -29,6 +34,34 @@ from taskcond.llm.models import DEFAULT_EMBEDDED_MODEL, cache_dir
 
 BACKENDS = ("embedded", "openai")
 DEFAULT_OPENAI_MODEL = "gpt-4o-mini"
+EMBEDDED_RUNTIMES = {"xllamacpp": "xllamacpp", "llama-cpp-python": "llama_cpp"}
+"""The embedded backend's llama.cpp runtimes, the default first, each with its import name: xllamacpp (a
+prebuilt wheel, the ``[embedded]`` extra) and llama-cpp-python (compiled on install,
+``[embedded-native]``)."""
+
+
+def embedded_runtime(requested: str | None = None) -> str:
+    """The embedded runtime: ``requested`` when given (else ``$TASKCOND_EMBEDDED_RUNTIME``), else the first
+    of :data:`EMBEDDED_RUNTIMES` that is installed, else the default (whose absence the backend reports)."""
+    chosen = requested or os.environ.get("TASKCOND_EMBEDDED_RUNTIME")
+    if chosen:
+        if chosen not in EMBEDDED_RUNTIMES:
+            raise LLMError(
+                f"unknown embedded runtime {chosen!r}; valid: {', '.join(EMBEDDED_RUNTIMES)}",
+                backend="config",
+            )
+        return chosen
+    installed = [name for name, module in EMBEDDED_RUNTIMES.items() if importlib.util.find_spec(module)]
+    return installed[0] if installed else next(iter(EMBEDDED_RUNTIMES))
+
+
+def runtime_label(runtime: str) -> str:
+    """``RUNTIME-VERSION`` of an embedded runtime (``RUNTIME`` alone when it is not installed), as results
+    record it."""
+    try:
+        return f"{runtime}-{metadata.version(runtime)}"
+    except metadata.PackageNotFoundError:
+        return runtime
 
 
 @dataclass(frozen=True)
@@ -45,6 +78,8 @@ class LLMConfig:
     cache_dir: Path | None = None
     threads: int | None = None
     """CPU threads of the embedded model (None: every core)."""
+    runtime: str | None = None
+    """The embedded backend's llama.cpp runtime, a key of :data:`EMBEDDED_RUNTIMES` (None for openai)."""
 
     @classmethod
     def load(cls, spec: str | None = None, config_file: Path | None = None) -> LLMConfig:
@@ -58,7 +93,7 @@ class LLMConfig:
                 table = tomllib.loads(path.read_text(encoding="utf-8")).get("llm", {})
             except tomllib.TOMLDecodeError as exc:
                 raise LLMError(f"config file {path} is not valid TOML: {exc}", backend="config") from None
-        known = {"backend", "base_url", "api_key_env", "timeout", "grammar_field", "cache"}
+        known = {"backend", "base_url", "api_key_env", "timeout", "grammar_field", "cache", "runtime"}
         unknown = set(table) - known
         if unknown:
             raise LLMError(
@@ -81,6 +116,9 @@ class LLMConfig:
             grammar_field=table.get("grammar_field"),
             cache=bool(table.get("cache", True)),
         )
+        if kind == "embedded":
+            runtime = os.environ.get("TASKCOND_EMBEDDED_RUNTIME") or table.get("runtime")
+            cfg = replace(cfg, runtime=embedded_runtime(runtime))
         if kind == "openai":
             cfg = replace(
                 cfg,
@@ -90,16 +128,31 @@ class LLMConfig:
         return cfg
 
 
+def embedded_backend(
+    model: str = DEFAULT_EMBEDDED_MODEL,
+    n_threads: int | None = None,
+    prefix_dir: Path | None = None,
+    runtime: str | None = None,
+) -> ChatBackend:
+    """The embedded backend of ``model`` on ``runtime`` (:func:`embedded_runtime` when None), not loaded
+    yet and without the response cache."""
+    if embedded_runtime(runtime) == "xllamacpp":
+        from taskcond.llm.xllamacpp_backend import XLlamaCppBackend
+
+        return XLlamaCppBackend(model, n_threads=n_threads, prefix_dir=prefix_dir)
+    from taskcond.llm.embedded import EmbeddedBackend
+
+    return EmbeddedBackend(model, n_threads=n_threads, prefix_dir=prefix_dir)
+
+
 def make_backend(config: LLMConfig) -> ChatBackend:
     """Build the configured backend, wrapped in the on-disk response cache unless ``config.cache`` is off."""
     backend: ChatBackend
     if config.backend == "embedded":
-        from taskcond.llm.embedded import EmbeddedBackend
-
-        prefixes = (config.cache_dir or cache_dir()) / "prefixes" if config.cache else None
-        backend = EmbeddedBackend(
-            config.model or DEFAULT_EMBEDDED_MODEL, n_threads=config.threads, prefix_dir=prefixes
-        )
+        runtime = config.runtime or embedded_runtime()
+        prefixes = (config.cache_dir or cache_dir()) / "prefixes" / runtime if config.cache else None
+        model = config.model or DEFAULT_EMBEDDED_MODEL
+        backend = embedded_backend(model, config.threads, prefixes, runtime)
     else:
         from taskcond.llm.openai_backend import OpenAIBackend
 

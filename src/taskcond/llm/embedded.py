@@ -39,7 +39,7 @@ import json
 import os
 import tempfile
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -71,6 +71,38 @@ def _common_prefix_length(a: Sequence[object], b: Sequence[object]) -> int:
         if a[i] != b[i]:
             return i
     return n
+
+
+def segment_starts(
+    tokens: Sequence[int], im_start: int, user: int, ends_blank_line: Callable[[int], bool]
+) -> list[int]:
+    """Where a ChatML prompt's segments start: 0, before every ``<|im_start|>`` (token ``im_start``) but one
+    that follows a user message (a user turn and the answer to it are one segment; ``user`` is the token of
+    the role name), after every token ending a blank line. Each position depends only on the tokens up to
+    it, so two prompts with a common prefix are cut alike within it."""
+    starts = [0]
+    after_user = False
+    for i in range(1, len(tokens)):
+        if (tokens[i] == im_start and not after_user) or ends_blank_line(tokens[i - 1]):
+            starts.append(i)
+        if tokens[i - 1] == im_start:
+            after_user = tokens[i] == user
+    return starts
+
+
+def prune_states(directory: Path, pattern: str, most_bytes: int, keep: Path) -> None:
+    """Delete the least recently used files matching ``pattern`` in ``directory`` beyond ``most_bytes``
+    bytes (by modification time; ``keep``, just written, stays). Another process may prune at the same
+    time: a file already gone is skipped."""
+    stats = []
+    for state in directory.glob(pattern):
+        with contextlib.suppress(OSError):
+            stats.append((state.stat(), state))
+    total = 0
+    for st, state in sorted(stats, key=lambda entry: entry[0].st_mtime, reverse=True):
+        total += st.st_size
+        if total > most_bytes and state != keep:
+            state.unlink(missing_ok=True)
 
 
 def amx_built_in(llama_cpp: Any) -> bool:
@@ -154,7 +186,8 @@ class EmbeddedBackend:
             import llama_cpp
         except ImportError:
             raise LLMError(
-                f"llama-cpp-python is missing; install it with pip install 'taskcond[{self.spec.extra}]'",
+                "llama-cpp-python is missing; install it with pip install 'taskcond[embedded-native]' (or "
+                "use the default runtime: unset TASKCOND_EMBEDDED_RUNTIME)",
                 backend=self.name,
             ) from None
         path = model_path(self.spec)
@@ -226,18 +259,8 @@ class EmbeddedBackend:
         return self._breaks[token]
 
     def segment_starts(self, llm: Any, tokens: Sequence[int]) -> list[int]:
-        """Where the prompt's segments start: 0, before every ``<|im_start|>`` but one that follows a user
-        message (a user turn and the answer to it are one segment), after every token ending a blank line.
-        Each position depends only on the tokens up to it, so two prompts with a common prefix are cut
-        alike within it."""
-        starts = [0]
-        after_user = False
-        for i in range(1, len(tokens)):
-            if (tokens[i] == self._im_start and not after_user) or self._ends_blank_line(llm, tokens[i - 1]):
-                starts.append(i)
-            if tokens[i - 1] == self._im_start:
-                after_user = tokens[i] == self._user
-        return starts
+        """Where the prompt's segments start (:func:`segment_starts`)."""
+        return segment_starts(tokens, self._im_start, self._user, lambda t: self._ends_blank_line(llm, t))
 
     def _prepare(self, slot: int, tokens: list[int], starts: list[int], shared_messages: int) -> None:
         """Evaluate every segment of the prompt but the last (which the chat completion evaluates), from
@@ -332,15 +355,7 @@ class EmbeddedBackend:
             if tmp is not None:
                 Path(tmp).unlink(missing_ok=True)
             return
-        stats = []
-        for state in path.parent.glob("*.state"):
-            with contextlib.suppress(OSError):
-                stats.append((state.stat(), state))
-        total = 0
-        for st, state in sorted(stats, key=lambda entry: entry[0].st_mtime, reverse=True):
-            total += st.st_size
-            if total > self.prefix_bytes and state != path:
-                state.unlink(missing_ok=True)
+        prune_states(path.parent, "*.state", self.prefix_bytes, keep=path)
 
     def _decode(self, llm: Any, batch: list[int], logits_from: int) -> list[int]:
         """Evaluate ``batch`` after the context's tokens and return the greedy choice after each of its
