@@ -21,6 +21,7 @@ from taskcond.generator import PROMPT_VERSION
 from taskcond.llm.base import LLMError
 from taskcond.primitives import PRIMITIVES, TaskNameError, parse_task
 from taskcond.reproduce import CONDITION_COLUMNS, EXECUTION_COLUMNS, GROUNDED_COLUMN
+from taskcond.worlds.robosuite import commands as robosuite
 
 app = typer.Typer(
     help="Long-horizon manipulation guided by LLM-generated task conditions (arXiv 2310.02264).",
@@ -112,6 +113,15 @@ StartOption = Annotated[
 SkillsOption = Annotated[
     Path | None,
     typer.Option("--skills", help="Skill library directory (default: the user cache; learned on first use)."),
+]
+WorldOption = Annotated[
+    str,
+    typer.Option(
+        "--world",
+        help="kitchen (the PyBullet suite, default) or robosuite (robosuite's MuJoCo tasks, ids = its "
+        "environment names: Lift, Stack, PickPlaceCan, ..., PickPlace, Door, NutAssemblySquare; judged by "
+        "robosuite's _check_success; needs the robosuite extra).",
+    ),
 ]
 
 
@@ -247,9 +257,13 @@ def conditions(
 
 
 @app.command()
-def tasks(as_json: JsonOption = False, primitives: PrimitivesOption = None) -> None:
+def tasks(
+    as_json: JsonOption = False, primitives: PrimitivesOption = None, world: WorldOption = "kitchen"
+) -> None:
     """List the primitives with their task-name patterns and the suite's tasks (--json: the suite's tasks)."""
     _declare(primitives)
+    if robosuite.check_world(world):
+        return robosuite.tasks(as_json)
     try:
         from taskcond.tasks.registry import list_tasks
 
@@ -294,14 +308,17 @@ def oracle(
     video: Annotated[
         Path | None, typer.Option("--video", help="Record the first episode to this .mp4 or .gif.")
     ] = None,
+    world: WorldOption = "kitchen",
 ) -> None:
     """Run the scripted oracle of TASK and report its success rate."""
+    if video is not None and video.suffix.lower() not in (".mp4", ".gif"):
+        fail(f"--video {video}: use a .mp4 or .gif file name")
+    if robosuite.check_world(world):
+        return robosuite.oracle(task, episodes, seed, as_json, video)
     try:
         from taskcond.tasks.oracle import run_oracle
     except ImportError as exc:
         fail(f"the task suite needs the [sim] extra ({exc.name} missing): pip install 'taskcond[sim]'")
-    if video is not None and video.suffix.lower() not in (".mp4", ".gif"):
-        fail(f"--video {video}: use a .mp4 or .gif file name")
     try:
         report = run_oracle(task, episodes=episodes, seed=seed, video=video)
     except ValueError as exc:
@@ -489,10 +506,15 @@ def learn(
             "on one core).",
         ),
     ] = "dmp",
+    world: WorldOption = "kitchen",
 ) -> None:
     """Record oracle demonstrations and store the skill library: DMPs and FromEnv conditions (§III-D); or
     learn the skills of demonstration files (--demo); or train the image-based baseline (--method
     image-il)."""
+    if robosuite.check_world(world):
+        if demo or method != "dmp":
+            fail("--world robosuite learns DMP skills from its oracles; --demo and --method do not apply")
+        return robosuite.learn(out, task, seed)
     _sim_import()
     _declare(primitives)
     if method not in ("dmp", "image-il"):
@@ -688,9 +710,15 @@ def run(
     planner: PlannerOption = "conditions",
     start: StartOption = "task",
     primitives: PrimitivesOption = None,
+    world: WorldOption = "kitchen",
 ) -> None:
     """Perform a long-horizon task: conditions, the look-ahead planner, Alg. 1 pre-condition satisfaction,
     Alg. 2 DMP control; a free instruction is judged by its goal predicates (exit 0 only on success)."""
+    if robosuite.check_world(world):
+        if video is not None and video.suffix.lower() not in (".mp4", ".gif"):
+            fail(f"--video {video}: use a .mp4 or .gif file name")
+        shot = None if no_video else (video or Path("runs") / f"robosuite-{_slug(spec)}-{method}-{seed}.mp4")
+        return robosuite.run(spec, method, seed, shot, trace, noise, llm, skills, planner, start)
     _sim_import()
     _declare(primitives)
     from taskcond.execution.decompose import DecompositionError
@@ -1106,7 +1134,12 @@ def _eval_command(kind: str):
                 "both).",
             ),
         ] = False,
+        world: WorldOption = "kitchen",
     ) -> None:
+        if robosuite.check_world(world):
+            return robosuite.evaluate(
+                kind, episodes, method, as_json, out, task, seed, noise, llm, skills, planner, start
+            )
         _check_start(start)
         settings = ExecutionSettings(
             workers, noise, llm, skills, backend, ray_address, planner, start, novel_primitive=novel_primitive

@@ -2,14 +2,13 @@
 
 The layers are the kitchen's:
 
-| layer | module | knows |
-|---|---|---|
-| simulator | :mod:`.scene` (robosuite environments, names of their bodies, boxes from geoms, contacts) | no task |
-| task suite | :mod:`.tasks` (one robosuite environment per task: its primitive steps, scripted oracle, and
-  robosuite's own ``_check_success``) | the scene |
-| execution | :mod:`.world` (the executor's :class:`~taskcond.execution.world.World`), :mod:`.demos`
-  (demonstrations and skills), :mod:`.episodes` (episodes and evaluations) | tasks and scene |
-| interface | :mod:`.commands` (``taskcond ... --world robosuite``) | everything |
+* simulator, :mod:`.scene`: robosuite's environments, the names of their bodies, boxes from geoms,
+  contacts; knows no task;
+* task suite, :mod:`.tasks`: each robosuite environment as primitive steps, a scripted oracle and
+  robosuite's own ``_check_success``;
+* execution: :mod:`.world` (the executor's :class:`~taskcond.execution.world.World`), :mod:`.demos`
+  (demonstrations and skills), :mod:`.episodes` (episodes and evaluations);
+* interface, :mod:`.commands`: ``taskcond ... --world robosuite``.
 
 robosuite is an optional dependency (``pip install taskcond[robosuite]``); :func:`require_robosuite` says
 how to get it.
@@ -18,6 +17,7 @@ how to get it.
 from __future__ import annotations
 
 import importlib.metadata
+import logging
 import os
 
 
@@ -26,12 +26,16 @@ class RobosuiteUnavailableError(RuntimeError):
 
 
 def require_robosuite() -> None:
-    """Import robosuite once (headless: ``MUJOCO_GL=egl`` unless set), or raise a one-line error.
+    """Import robosuite once (headless: ``MUJOCO_GL=egl`` unless set; its log below errors silenced: at
+    import it warns of optional parts nothing here uses), or raise a one-line error.
 
     Raises:
         RobosuiteUnavailableError: robosuite or mujoco is missing.
     """
     os.environ.setdefault("MUJOCO_GL", "egl")
+    log = logging.getLogger("robosuite_logs")
+    if not log.filters:
+        log.addFilter(lambda record: record.levelno >= logging.ERROR)
     try:
         import mujoco  # noqa: F401
         import robosuite  # noqa: F401

@@ -89,9 +89,9 @@ def record_demonstrations(task_id: str, seed: int = 0) -> tuple[list[Demonstrati
         scene = reset(env, seed)
         world = RobosuiteWorld(scene)
         quat = down(scene)
+        ids = [f"{task_id}.{k}" if len(task.steps) > 1 else task_id for k in range(1, len(task.steps) + 1)]
         demos = [
-            record(world, step, f"{task_id}.{k}" if len(task.steps) > 1 else task_id, oracle(scene, step, quat))
-            for k, step in enumerate(task.steps, start=1)
+            record(world, step, i, oracle(scene, step, quat)) for i, step in zip(ids, task.steps, strict=True)
         ]
         return demos, scene.success()
     finally:

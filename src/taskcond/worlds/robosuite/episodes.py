@@ -19,7 +19,7 @@ from typing import Any
 
 from taskcond.conditions import Predicate
 from taskcond.execution.executor import ConditionSource, Event, ExecutionConfig, Executor, Method
-from taskcond.execution.planner import Repair, repair
+from taskcond.execution.planner import Repair, goal_of, repair
 from taskcond.execution.runner import DEFAULT_NOISE, PLANNERS, EpisodeResult, make_source
 from taskcond.execution.skills import SkillLibrary
 from taskcond.results import Job, ResultsFile, RunConfig, code_version, directory_digest, llm_fields
@@ -56,9 +56,11 @@ def run_episode(
     start_state: str = "task",
     steps: tuple[str, ...] | None = None,
 ) -> EpisodeResult:
-    """Reset robosuite's ``task.id`` for ``seed``, repair the steps (``steps``, default the task's: a free
-    instruction's decomposition in this scene) with the planner and execute them with ``method``; success
-    is robosuite's ``_check_success``.
+    """Reset robosuite's ``task.id`` for ``seed``, repair the steps with the planner and execute them with
+    ``method``; success is robosuite's ``_check_success``. ``steps`` (a free instruction's decomposition in
+    this task's scene) replace the task's own; the episode is then judged by their goal
+    (:func:`~taskcond.execution.planner.goal_of`) on the true state at the end, since robosuite's check
+    judges its own task, not the instruction.
 
     Raises:
         ValueError: an unknown planner or start state.
@@ -68,6 +70,7 @@ def run_episode(
     if start_state not in STARTS:
         raise ValueError(f"unknown start {start_state!r}; valid: {', '.join(STARTS)}")
     start = time.perf_counter()
+    instruction = steps is not None
     steps = task.steps if steps is None else steps
     env = make_env(task.id, video=video is not None)
     recorder = VideoRecorder(video) if video is not None else None
@@ -83,13 +86,18 @@ def run_episode(
             except (ValueError, RuntimeError, OSError):
                 fixed = None  # the executor reports the condition it cannot get on its step
         planning = time.perf_counter() - planning
+        goal = _goal(steps, source) if instruction else ()
         if on_plan is not None:
-            on_plan(fixed, ())
+            on_plan(fixed, goal)
         run_steps = steps if fixed is None else fixed.steps
         if fixed is None or fixed.impossible is None:
             result = Executor(world, library, method, source, config, on_event).run(run_steps)
-        success = scene.success()
         final = final_predicates(world)
+        missing = [str(q) for q in goal if str(q) not in final]
+        if instruction:
+            success = result is not None and result.failure is None and not missing
+        else:
+            success = scene.success()
         sim_seconds, env_seconds = world.time, world.env_seconds
     finally:
         if recorder is not None:
@@ -101,7 +109,12 @@ def run_episode(
     else:
         failure, reason = result.failure_kind, result.failure
     if failure is None and not success:
-        failure, reason = "not_succeeded", "the run completed but robosuite's _check_success is False"
+        failure = "not_succeeded"
+        reason = (
+            f"the goal does not hold: {', '.join(missing)}"
+            if instruction
+            else "the run completed but robosuite's _check_success is False"
+        )
     return EpisodeResult(
         task=task.id,
         method=method,
@@ -118,11 +131,23 @@ def run_episode(
         planner=planner,
         plan_seconds=round(planning, 4),
         repair=None if fixed is None else fixed.to_dict(),
+        goal=[str(q) for q in goal],
+        goal_missing=missing,
         start=start_state,
         final_predicates=final,
         events=[] if result is None else [e.to_dict() for e in result.events],
         conditions={} if result is None else {k: v.to_dict() for k, v in result.conditions.items()},
     )
+
+
+def _goal(steps: tuple[str, ...], source: ConditionSource | None) -> tuple[Predicate, ...]:
+    """A free instruction's goal: the composed effects of its steps (from their conditions if any)."""
+    if source is None:
+        return goal_of(steps)
+    try:
+        return goal_of(steps, source.condition)
+    except (ValueError, RuntimeError, OSError):
+        return goal_of(steps)
 
 
 def run_config(
@@ -172,7 +197,13 @@ def evaluate(
             sources[method] = make_source(method, library, llm)
         try:
             record = run_episode(
-                by_id[job.task], method, job.seed, library, sources[method], noise, planner=planner,
+                by_id[job.task],
+                method,
+                job.seed,
+                library,
+                sources[method],
+                noise,
+                planner=planner,
                 start_state=start,
             ).summary()
         except Exception as exc:  # a crash is recorded, not a result: a resumed evaluation runs it again

@@ -16,7 +16,6 @@ kitchen.
 
 from __future__ import annotations
 
-import logging
 from dataclasses import dataclass
 from typing import Any
 
@@ -107,13 +106,26 @@ def controller_config() -> dict[str, Any]:
     return config
 
 
+def renderer_error() -> str | None:
+    """Why MuJoCo cannot render offscreen here (no EGL or OSMesa for ``MUJOCO_GL``), or None if it can."""
+    require_robosuite()
+    import mujoco
+
+    try:
+        context = mujoco.GLContext(16, 16)
+        context.make_current()
+        context.free()
+    except Exception as exc:  # any GL back end's failure means no video, never a failed run
+        return f"{type(exc).__name__}: {' '.join(str(exc).split())[:120]}"
+    return None
+
+
 def make_env(env_name: str, video: bool = False) -> Any:
     """robosuite's environment ``env_name`` with the Panda and :func:`controller_config`, no time limit;
     an offscreen renderer only for ``video``."""
     require_robosuite()
     import robosuite
 
-    logging.getLogger("robosuite").setLevel(logging.ERROR)
     return robosuite.make(
         env_name,
         robots="Panda",
@@ -384,5 +396,6 @@ __all__ = [
     "Touching",
     "controller_config",
     "make_env",
+    "renderer_error",
     "reset",
 ]

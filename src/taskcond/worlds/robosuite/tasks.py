@@ -17,7 +17,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from taskcond.primitives import parse_task
-from taskcond.worlds.robosuite.scene import BIN_QUARTERS, RobosuiteScene
+from taskcond.worlds.robosuite.scene import RobosuiteScene
 
 Command = tuple[np.ndarray, np.ndarray, float]
 """One control step's end-effector command: position (3,) m, orientation (4,) xyzw, gripper 0–1."""
@@ -32,7 +32,10 @@ placed only once the hand is 7 cm away from it)."""
 ABOVE = 0.10
 """Height (m) above an object's top where a grasp's descent starts."""
 GRIP_DEPTH = 0.035
-"""Depth (m) below an object's top at which the fingertips close (its centre if that is higher)."""
+"""Depth (m) below an object's top at which the fingertips close ..."""
+GRIP_FLOOR = 0.015
+"""... or this height (m) above its bottom if that is higher: a short object (the cube) is held over most
+of its height, so that 5 mm of perception noise on its height leaves the pads on it."""
 CLEARANCE = 0.06
 """Clearance (m) of a carried object above what it is carried over."""
 DROP = 0.02
@@ -62,7 +65,12 @@ def _pick_place(obj: str) -> tuple[str, ...]:
     return (f"grasp {obj}", f"move {obj} into {obj} bin", f"release {obj}")
 
 
-SINGLE_OBJECTS = {"PickPlaceMilk": "milk", "PickPlaceBread": "bread", "PickPlaceCereal": "cereal", "PickPlaceCan": "can"}
+SINGLE_OBJECTS = {
+    "PickPlaceMilk": "milk",
+    "PickPlaceBread": "bread",
+    "PickPlaceCereal": "cereal",
+    "PickPlaceCan": "can",
+}
 """robosuite's single-object PickPlace environments and their object."""
 
 TASKS: dict[str, RobosuiteTask] = {
@@ -132,7 +140,9 @@ def _line(start: np.ndarray, goal: np.ndarray, speed: float = SPEED, dt: float =
     return [start + (goal - start) * (k / n) for k in range(1, n + 1)]
 
 
-def _path(waypoints: list[tuple[np.ndarray, float]], start: np.ndarray, quat: np.ndarray) -> Iterator[Command]:
+def _path(
+    waypoints: list[tuple[np.ndarray, float]], start: np.ndarray, quat: np.ndarray
+) -> Iterator[Command]:
     """Straight lines through ``waypoints`` (position (3,) m, gripper), each end held :data:`HOLD` steps
     where the gripper command changes."""
     here, grip = start, waypoints[0][1]
@@ -149,11 +159,12 @@ def _path(waypoints: list[tuple[np.ndarray, float]], start: np.ndarray, quat: np
 
 
 def grasp(scene: RobosuiteScene, obj: str, quat: np.ndarray) -> Iterator[Command]:
-    """Above the object, straight down to :data:`GRIP_DEPTH` below its top, close, lift :data:`LIFT`."""
+    """Above the object, straight down to :data:`GRIP_DEPTH` below its top (:data:`GRIP_FLOOR` above its
+    bottom at least), close, lift :data:`LIFT`."""
     here, _ = scene.ee_pose()
     lower, upper = scene.box(obj)
     centre = (lower + upper) / 2
-    grip = np.array([centre[0], centre[1], max(centre[2], upper[2] - GRIP_DEPTH)])
+    grip = np.array([centre[0], centre[1], max(lower[2] + GRIP_FLOOR, upper[2] - GRIP_DEPTH)])
     above = np.array([*grip[:2], upper[2] + ABOVE])
     yield from _path(
         [
@@ -161,7 +172,7 @@ def grasp(scene: RobosuiteScene, obj: str, quat: np.ndarray) -> Iterator[Command
             (above, 0.0),
             (grip, 0.0),
             (grip, 1.0),
-            (grip + [0.0, 0.0, LIFT], 1.0),
+            (grip + np.array([0.0, 0.0, LIFT]), 1.0),
         ],
         here,
         quat,
@@ -171,14 +182,14 @@ def grasp(scene: RobosuiteScene, obj: str, quat: np.ndarray) -> Iterator[Command
 def release(scene: RobosuiteScene, obj: str, quat: np.ndarray) -> Iterator[Command]:
     """Open where the hand is, then rise :data:`LIFT`."""
     here, _ = scene.ee_pose()
-    yield from _path([(here, 1.0), (here, 0.0), (here + [0.0, 0.0, LIFT], 0.0)], here, quat)
+    yield from _path([(here, 1.0), (here, 0.0), (here + np.array([0.0, 0.0, LIFT]), 0.0)], here, quat)
 
 
 def carry(scene: RobosuiteScene, obj: str, place: str, quat: np.ndarray, inside: bool) -> Iterator[Command]:
     """Carry the held ``obj`` up, across to above ``place`` and down until its bottom is :data:`DROP`
     above the place's floor (``inside``: a bin's bottom) or top."""
     here, _ = scene.ee_pose()
-    lower, upper = scene.box(obj)
+    lower, _ = scene.box(obj)
     hand_above_bottom = here[2] - lower[2]
     p_lower, p_upper = scene.box(place)
     target = (p_lower + p_upper) / 2

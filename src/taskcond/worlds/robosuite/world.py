@@ -130,9 +130,9 @@ class RobosuiteWorld:
             return None
         if primitive == "fold":
             return f"{objects[0]!r} cannot be folded"
-        if primitive in ("grasp", "release", "tilt", "move", "move_on_top", "move_into", "move_in_front"):
-            if objects[0] not in free:
-                return f"{objects[0]!r} cannot be picked up (free objects: {', '.join(free) or 'none'})"
+        carried = ("grasp", "release", "tilt", "move", "move_on_top", "move_into", "move_in_front")
+        if primitive in carried and objects[0] not in free:
+            return f"{objects[0]!r} cannot be picked up (free objects: {', '.join(free) or 'none'})"
         if primitive == "move_into" and objects[1] not in self.scene.containers:
             return f"{objects[1]!r} is not a container (containers: {', '.join(self.scene.containers)})"
         return None
