@@ -27,7 +27,7 @@ ORACLE_REVISION = 1
 demonstrations change, so that an older library is not picked up by default."""
 SETTLE = 5
 """Control steps the last command of a demonstration is held before its end is observed."""
-DEMONSTRATED = ("Lift", "Stack", "PickPlaceMilk", "PickPlaceBread", "PickPlaceCereal", "PickPlaceCan", "Door")
+DEMONSTRATED = ("Lift", "Stack", "PickPlaceMilk", "PickPlaceBread", "PickPlaceCereal", "PickPlaceCan")
 """Tasks demonstrated by default: one demonstration of each of their primitive steps (the four-object
 PickPlace reuses the single-object skills: the same primitive task names)."""
 
