@@ -46,6 +46,8 @@ OBJECT_NAMES = {
 environments."""
 ROUND = frozenset({"can", "round nut"})
 """Free objects that look the same turned about their vertical axis."""
+CUBES = frozenset({"cube", "red cube", "green cube"})
+"""Free objects that look the same on any face: upright whichever of their axes is vertical."""
 BIN_QUARTERS = ("milk bin", "bread bin", "cereal bin", "can bin")
 """PickPlace's target bin in quarters, in robosuite's object order (Milk, Bread, Cereal, Can): quarter i
 is where robosuite's ``not_in_bin(pos, i)`` wants object i."""
@@ -292,11 +294,13 @@ class RobosuiteScene:
         return np.array(self.sim.data.body_xpos[body]), np.array([*wxyz[1:], wxyz[0]])
 
     def lying(self) -> frozenset[str]:
-        """The free objects tilted more than 45° (:data:`LYING`)."""
+        """The free objects tilted more than 45° (:data:`LYING`) from standing: their own z axis, or for
+        a cube (:data:`CUBES`) every one of its axes (a cube turned onto another face stands)."""
         out = []
         for name in self.free:
-            up = Rotation.from_quat(self.pose(name)[1]).apply([0.0, 0.0, 1.0])[2]
-            if up < LYING:
+            axes = Rotation.from_quat(self.pose(name)[1]).as_matrix()  # columns: the object's axes
+            up = np.abs(axes[2]) if name in CUBES else axes[2, 2:]
+            if up.max() < LYING:
                 out.append(name)
         return frozenset(out)
 
