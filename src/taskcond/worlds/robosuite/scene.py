@@ -46,8 +46,9 @@ OBJECT_NAMES = {
 environments."""
 ROUND = frozenset({"can", "round nut"})
 """Free objects that look the same turned about their vertical axis."""
-CUBES = frozenset({"cube", "red cube", "green cube"})
-"""Free objects that look the same on any face: upright whichever of their axes is vertical."""
+CUBE_LIKE = 1.25
+"""A free object whose box edges (in its own frame) differ by less than this factor (the cubes, the bread:
+0.040 × 0.048 × 0.048 m) stands on any face: it is upright whichever of its axes is vertical."""
 BIN_QUARTERS = ("milk bin", "bread bin", "cereal bin", "can bin")
 """PickPlace's target bin in quarters, in robosuite's object order (Milk, Bread, Cereal, Can): quarter i
 is where robosuite's ``not_in_bin(pos, i)`` wants object i."""
@@ -294,15 +295,20 @@ class RobosuiteScene:
         return np.array(self.sim.data.body_xpos[body]), np.array([*wxyz[1:], wxyz[0]])
 
     def lying(self) -> frozenset[str]:
-        """The free objects tilted more than 45° (:data:`LYING`) from standing: their own z axis, or for
-        a cube (:data:`CUBES`) every one of its axes (a cube turned onto another face stands)."""
+        """The free objects tilted more than 45° (:data:`LYING`) from standing: their own z axis, or for a
+        cube-like one (:data:`CUBE_LIKE`) every one of its axes (turned onto another face, it stands)."""
         out = []
         for name in self.free:
             axes = Rotation.from_quat(self.pose(name)[1]).as_matrix()  # columns: the object's axes
-            up = np.abs(axes[2]) if name in CUBES else axes[2, 2:]
+            up = np.abs(axes[2]) if self._cube_like(name) else axes[2, 2:]
             if up.max() < LYING:
                 out.append(name)
         return frozenset(out)
+
+    def _cube_like(self, name: str) -> bool:
+        """Whether the object's own box (MuJoCo's local ``geom_aabb`` of its geoms) is cube-like."""
+        half = np.max([self.model.geom_aabb[g, 3:] for g in self.entities[name].geoms], axis=0)
+        return bool(half.max() < CUBE_LIKE * half.min())
 
     # ------------------------------------------------------------------------------------- contacts
     def touches(self) -> list[Touching]:
