@@ -56,6 +56,8 @@ class RunConfig:
             as a dict; empty for ``conditions``).
         code: ``git describe`` of the package's checkout (``-dirty+<diff hash>`` with local changes), else
             ``taskcond <package version>``.
+        world: the world episodes ran in and its simulator's versions when it is not the PyBullet kitchen
+            (``robosuite 1.5.1, mujoco 3.3.2``); None for the kitchen (left out of :meth:`to_dict`).
     """
 
     kind: str
@@ -72,6 +74,7 @@ class RunConfig:
     execution: dict[str, Any] = field(default_factory=dict)
     code: str = ""
     il: str | None = None
+    world: str | None = None
 
     def to_dict(self) -> dict[str, Any]:
         """The fields as a dict, without those added later (:data:`_LATER_FIELDS`) while they hold their
@@ -96,7 +99,7 @@ class RunConfig:
         return [f"{k}: {b!r} (file) vs {a!r} (now)" for k, a, b in _diff(self.to_dict(), other)]
 
 
-_LATER_FIELDS: dict[str, Any] = {"il": None, "novel_primitive": False, "instructions": None}
+_LATER_FIELDS: dict[str, Any] = {"il": None, "novel_primitive": False, "instructions": None, "world": None}
 """Fields of :class:`RunConfig` added after results files existed, with the default they are left out at."""
 
 

@@ -92,6 +92,17 @@ SkillsOption = Annotated[
 ]
 
 
+WorldOption = Annotated[
+    str,
+    typer.Option(
+        "--world",
+        help="kitchen (the PyBullet suite, default) or robosuite (robosuite's MuJoCo tasks, ids = its "
+        "environment names: Lift, Stack, PickPlaceCan, ..., PickPlace, Door, NutAssemblySquare; judged by "
+        "robosuite's _check_success; needs the robosuite extra).",
+    ),
+]
+
+
 PrimitivesOption = Annotated[
     list[Path] | None,
     typer.Option(

@@ -9,6 +9,7 @@ from typing import Annotated
 
 import typer
 
+import taskcond.cli.robosuite as robosuite
 from taskcond.cli.common import (
     JsonOption,
     LlmOption,
@@ -17,6 +18,7 @@ from taskcond.cli.common import (
     PromptVersionOption,
     SamplesOption,
     SkillsOption,
+    WorldOption,
     _declare,
     _generator,
     _library,
@@ -111,9 +113,13 @@ def conditions(
     typer.echo(f"# {result.mode}{grounded_note}, {result.seconds:.2f} s, from {source}", err=True)
 
 
-def tasks(as_json: JsonOption = False, primitives: PrimitivesOption = None) -> None:
+def tasks(
+    as_json: JsonOption = False, primitives: PrimitivesOption = None, world: WorldOption = "kitchen"
+) -> None:
     """List the primitives with their task-name patterns and the suite's tasks (--json: the suite's tasks)."""
     _declare(primitives)
+    if robosuite.check_world(world):
+        return robosuite.tasks(as_json)
     try:
         from taskcond.tasks.registry import list_tasks
 

@@ -12,6 +12,7 @@ from typing import Annotated
 
 import typer
 
+import taskcond.cli.robosuite as robosuite
 from taskcond.cli.common import (
     BackendOption,
     ExecutionSettings,
@@ -23,6 +24,7 @@ from taskcond.cli.common import (
     SkillsOption,
     StartOption,
     WorkersOption,
+    WorldOption,
     _check_start,
     _crashed,
     _library,
@@ -287,7 +289,12 @@ def eval_command(kind: str):
                 "both).",
             ),
         ] = False,
+        world: WorldOption = "kitchen",
     ) -> None:
+        if robosuite.check_world(world):
+            return robosuite.evaluate(
+                kind, episodes, method, as_json, out, task, seed, noise, llm, skills, planner, start
+            )
         _check_start(start)
         settings = ExecutionSettings(
             workers, noise, llm, skills, backend, ray_address, planner, start, novel_primitive=novel_primitive

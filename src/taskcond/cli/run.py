@@ -9,6 +9,7 @@ from typing import Annotated
 
 import typer
 
+import taskcond.cli.robosuite as robosuite
 from taskcond.cli.common import (
     LlmOption,
     MethodOption,
@@ -17,6 +18,7 @@ from taskcond.cli.common import (
     PrimitivesOption,
     SkillsOption,
     StartOption,
+    WorldOption,
     _declare,
     _library,
     _sim_import,
@@ -56,9 +58,15 @@ def run(
     planner: PlannerOption = "conditions",
     start: StartOption = "task",
     primitives: PrimitivesOption = None,
+    world: WorldOption = "kitchen",
 ) -> None:
     """Perform a long-horizon task: conditions, the look-ahead planner, Alg. 1 pre-condition satisfaction,
     Alg. 2 DMP control; a free instruction is judged by its goal predicates (exit 0 only on success)."""
+    if robosuite.check_world(world):
+        if video is not None and video.suffix.lower() not in (".mp4", ".gif"):
+            fail(f"--video {video}: use a .mp4 or .gif file name")
+        shot = None if no_video else (video or Path("runs") / f"robosuite-{_slug(spec)}-{method}-{seed}.mp4")
+        return robosuite.run(spec, method, seed, shot, trace, noise, llm, skills, planner, start)
     _sim_import()
     _declare(primitives)
     from taskcond.application.condition_sources import make_source

@@ -11,9 +11,11 @@ from typing import Annotated
 
 import typer
 
+import taskcond.cli.robosuite as robosuite
 from taskcond.cli.common import (
     JsonOption,
     PrimitivesOption,
+    WorldOption,
     _declare,
     _default_library_dir,
     _library,
@@ -34,14 +36,17 @@ def oracle(
     video: Annotated[
         Path | None, typer.Option("--video", help="Record the first episode to this .mp4 or .gif.")
     ] = None,
+    world: WorldOption = "kitchen",
 ) -> None:
     """Run the scripted oracle of TASK and report its success rate."""
+    if video is not None and video.suffix.lower() not in (".mp4", ".gif"):
+        fail(f"--video {video}: use a .mp4 or .gif file name")
+    if robosuite.check_world(world):
+        return robosuite.oracle(task, episodes, seed, as_json, video)
     try:
         from taskcond.tasks.oracle import run_oracle
     except ImportError as exc:
         fail(f"the task suite needs the [sim] extra ({exc.name} missing): pip install 'taskcond[sim]'")
-    if video is not None and video.suffix.lower() not in (".mp4", ".gif"):
-        fail(f"--video {video}: use a .mp4 or .gif file name")
     try:
         report = run_oracle(task, episodes=episodes, seed=seed, video=video)
     except ValueError as exc:
@@ -94,10 +99,15 @@ def learn(
             "on one core).",
         ),
     ] = "dmp",
+    world: WorldOption = "kitchen",
 ) -> None:
     """Record oracle demonstrations and store the skill library: DMPs and FromEnv conditions (§III-D); or
     learn the skills of demonstration files (--demo); or train the image-based baseline (--method
     image-il)."""
+    if robosuite.check_world(world):
+        if demo or method != "dmp":
+            fail("--world robosuite learns DMP skills from its oracles; --demo and --method do not apply")
+        return robosuite.learn(out, task, seed)
     _sim_import()
     _declare(primitives)
     if method not in ("dmp", "image-il"):

@@ -1,0 +1,234 @@
+"""robosuite's tasks in the condition vocabulary: each robosuite environment as the primitive task names
+that do it, a scripted oracle per primitive (robosuite ships no scripted experts), and robosuite's own
+``_check_success`` as the judge. The registry is :data:`TASKS`; ids are robosuite's environment names.
+
+An oracle plans from the true state of the scene when its primitive starts (MuJoCo's poses, never the
+perceived ones) and yields end-effector commands, one per control step: (position (3,) m, orientation (4,)
+xyzw, gripper 0 open … 1 closed), world frame. Every primitive keeps the hand pointing down in the
+orientation :func:`down` derives from the arm's start pose.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from taskcond.primitives import parse_task
+from taskcond.worlds.robosuite.scene import RobosuiteScene
+
+Command = tuple[np.ndarray, np.ndarray, float]
+"""One control step's end-effector command: position (3,) m, orientation (4,) xyzw, gripper 0–1."""
+
+SPEED = 0.2
+"""Oracle hand speed, m/s."""
+HOLD = 12
+"""Control steps the oracle holds still where the gripper closes or opens."""
+LIFT = 0.15
+"""Height (m) a grasp lifts its object by; a release rises as much (robosuite's PickPlace counts an object
+placed only once the hand is 7 cm away from it)."""
+ABOVE = 0.10
+"""Height (m) above an object's top where a grasp's descent starts."""
+GRIP_DEPTH = 0.035
+"""Depth (m) below an object's top at which the fingertips close ..."""
+GRIP_FLOOR = 0.015
+"""... or this height (m) above its bottom if that is higher: a short object (the cube) is held over most
+of its height, so that 5 mm of perception noise on its height leaves the pads on it."""
+CLEARANCE = 0.06
+"""Clearance (m) of a carried object above what it is carried over."""
+DROP = 0.02
+"""Height (m) above its place at which a carried object is let go."""
+
+
+@dataclass(frozen=True)
+class RobosuiteTask:
+    """One robosuite environment as a task.
+
+    Attributes:
+        id: robosuite's environment name (``Lift``, ``PickPlaceCan``).
+        steps: the primitive task names that do it, in order.
+        description: one line.
+    """
+
+    id: str
+    steps: tuple[str, ...]
+    description: str
+
+    @property
+    def kind(self) -> str:
+        return "primitive" if len(self.steps) == 1 else "long-horizon"
+
+
+def _pick_place(obj: str) -> tuple[str, ...]:
+    return (f"grasp {obj}", f"move {obj} into {obj} bin", f"release {obj}")
+
+
+SINGLE_OBJECTS = {
+    "PickPlaceMilk": "milk",
+    "PickPlaceBread": "bread",
+    "PickPlaceCereal": "cereal",
+    "PickPlaceCan": "can",
+}
+"""robosuite's single-object PickPlace environments and their object."""
+
+TASKS: dict[str, RobosuiteTask] = {
+    t.id: t
+    for t in (
+        RobosuiteTask("Lift", ("grasp cube",), "lift the cube"),
+        RobosuiteTask(
+            "Stack",
+            ("grasp red cube", "move red cube on top of green cube", "release red cube"),
+            "stack the red cube on the green cube",
+        ),
+        *(
+            RobosuiteTask(env, _pick_place(obj), f"put the {obj} into its bin")
+            for env, obj in SINGLE_OBJECTS.items()
+        ),
+        RobosuiteTask(
+            "PickPlace",
+            tuple(s for obj in ("milk", "bread", "cereal", "can") for s in _pick_place(obj)),
+            "put each of the four objects into its bin",
+        ),
+    )
+}
+"""The supported robosuite environments, by robosuite's name. Not (yet) supported: Door (its latched lever
+is turned and pulled sideways; a top-down hand cannot hold it in front of the door panel, and the
+oracle tried with a level hand did not track its poses under the OSC) and NutAssemblySquare (the nut's
+handle must be grasped at the nut's yaw, which robosuite draws uniformly; the executor's environment
+information has boxes and centres, no orientations)."""
+
+
+class UnknownRobosuiteTaskError(KeyError):
+    """An id that is not in :data:`TASKS`; the message lists the valid ones."""
+
+    def __str__(self) -> str:
+        return str(self.args[0])
+
+
+def get_task(task_id: str) -> RobosuiteTask:
+    """The task of robosuite's environment ``task_id``.
+
+    Raises:
+        UnknownRobosuiteTaskError: not a supported environment.
+    """
+    try:
+        return TASKS[task_id]
+    except KeyError:
+        raise UnknownRobosuiteTaskError(
+            f"unknown robosuite task {task_id!r}; valid: {', '.join(TASKS)}"
+        ) from None
+
+
+# ------------------------------------------------------------------------------------------- oracles
+def down(scene: RobosuiteScene) -> np.ndarray:
+    """The hand pointing straight down (its z axis world −z), its fingers' closing axis (its y) the
+    horizontal part of the start pose's: the start pose without its tilt, xyzw (4,)."""
+    start = Rotation.from_quat(scene.ee_pose()[1]).as_matrix()
+    y = np.array([start[0, 1], start[1, 1], 0.0])
+    y /= np.linalg.norm(y)
+    z = np.array([0.0, 0.0, -1.0])
+    return Rotation.from_matrix(np.column_stack([np.cross(y, z), y, z])).as_quat()
+
+
+def _line(start: np.ndarray, goal: np.ndarray, speed: float = SPEED, dt: float = 0.05) -> list[np.ndarray]:
+    """Positions (3,) m, one per control step, from ``start`` (exclusive) to ``goal`` (inclusive)."""
+    n = max(1, int(np.ceil(np.linalg.norm(goal - start) / (speed * dt))))
+    return [start + (goal - start) * (k / n) for k in range(1, n + 1)]
+
+
+def _path(
+    waypoints: list[tuple[np.ndarray, float]], start: np.ndarray, quat: np.ndarray
+) -> Iterator[Command]:
+    """Straight lines through ``waypoints`` (position (3,) m, gripper), each end held :data:`HOLD` steps
+    where the gripper command changes."""
+    here, grip = start, waypoints[0][1]
+    for point, gripper in waypoints:
+        if gripper != grip:
+            for _ in range(HOLD):
+                yield here, quat, gripper
+            grip = gripper
+        for position in _line(here, point):
+            yield position, quat, gripper
+        here = point
+    for _ in range(3):
+        yield here, quat, grip
+
+
+def grasp(scene: RobosuiteScene, obj: str, quat: np.ndarray) -> Iterator[Command]:
+    """Above the object, straight down to :data:`GRIP_DEPTH` below its top (:data:`GRIP_FLOOR` above its
+    bottom at least), close, lift :data:`LIFT`."""
+    here, _ = scene.ee_pose()
+    lower, upper = scene.box(obj)
+    centre = (lower + upper) / 2
+    grip = np.array([centre[0], centre[1], max(lower[2] + GRIP_FLOOR, upper[2] - GRIP_DEPTH)])
+    above = np.array([*grip[:2], upper[2] + ABOVE])
+    yield from _path(
+        [
+            (np.array([*here[:2], max(here[2], above[2])]), 0.0),
+            (above, 0.0),
+            (grip, 0.0),
+            (grip, 1.0),
+            (grip + np.array([0.0, 0.0, LIFT]), 1.0),
+        ],
+        here,
+        quat,
+    )
+
+
+def release(scene: RobosuiteScene, obj: str, quat: np.ndarray) -> Iterator[Command]:
+    """Open where the hand is, then rise :data:`LIFT`."""
+    here, _ = scene.ee_pose()
+    yield from _path([(here, 1.0), (here, 0.0), (here + np.array([0.0, 0.0, LIFT]), 0.0)], here, quat)
+
+
+def carry(scene: RobosuiteScene, obj: str, place: str, quat: np.ndarray, inside: bool) -> Iterator[Command]:
+    """Carry the held ``obj`` up, across to above ``place`` and down until its bottom is :data:`DROP`
+    above the place's floor (``inside``: a bin's bottom) or top."""
+    here, _ = scene.ee_pose()
+    lower, _ = scene.box(obj)
+    hand_above_bottom = here[2] - lower[2]
+    p_lower, p_upper = scene.box(place)
+    target = (p_lower + p_upper) / 2
+    floor = p_lower[2] if inside else p_upper[2]
+    high = max(here[2], p_upper[2] + hand_above_bottom + CLEARANCE)
+    yield from _path(
+        [
+            (np.array([*here[:2], high]), 1.0),
+            (np.array([*target[:2], high]), 1.0),
+            (np.array([*target[:2], floor + DROP + hand_above_bottom]), 1.0),
+        ],
+        here,
+        quat,
+    )
+
+
+def oracle(scene: RobosuiteScene, task_name: str, quat: np.ndarray) -> Iterator[Command]:
+    """The scripted commands of one primitive task from the scene's current state.
+
+    Raises:
+        ValueError: a primitive no oracle here performs.
+    """
+    task = parse_task(task_name)
+    plans: dict[str, Callable[[], Iterator[Command]]] = {
+        "grasp": lambda: grasp(scene, task.objects[0], quat),
+        "release": lambda: release(scene, task.objects[0], quat),
+        "move_into": lambda: carry(scene, *task.objects, quat, inside=True),
+        "move_on_top": lambda: carry(scene, *task.objects, quat, inside=False),
+    }
+    if task.primitive.id not in plans:
+        raise ValueError(f"no robosuite oracle for {task.name!r}; oracles: {', '.join(plans)}")
+    return plans[task.primitive.id]()
+
+
+__all__ = [
+    "SINGLE_OBJECTS",
+    "TASKS",
+    "Command",
+    "RobosuiteTask",
+    "UnknownRobosuiteTaskError",
+    "down",
+    "get_task",
+    "oracle",
+]
