@@ -70,6 +70,7 @@ from taskcond.conditions import (
 from taskcond.dmp import DMPParameters, DMPRollout, rollout
 from taskcond.execution.collisions import CollisionMonitor
 from taskcond.execution.events import Event, EventLog, fmt_items, fmt_vector
+from taskcond.execution.observer import ExecutionObserver, planned_path
 from taskcond.execution.skills import (
     Segment,
     Skill,
@@ -230,6 +231,7 @@ class Executor:
         source: the condition source for every method but ``"none"``.
         config: constants of Alg. 1/2.
         on_event: called with every :class:`Event` as it happens.
+        observer: told every movement (:mod:`taskcond.execution.observer`); None computes nothing for it.
     """
 
     def __init__(
@@ -240,6 +242,7 @@ class Executor:
         source: ConditionSource | None = None,
         config: ExecutionConfig | None = None,
         on_event: Callable[[Event], None] | None = None,
+        observer: ExecutionObserver | None = None,
     ) -> None:
         if method not in METHODS:
             raise ValueError(f"unknown method {method!r}; valid: {', '.join(METHODS)}")
@@ -251,6 +254,7 @@ class Executor:
         self.source = source
         self.config = config or ExecutionConfig()
         self.log = EventLog(lambda: self.world.time, on_event)
+        self.observer = observer
         self.conditions: dict[str, TaskCondition] = {}
         self.adjustments = 0
         self.raised = 0
@@ -408,7 +412,9 @@ class Executor:
         """Move the hand in a straight line from where it is to ``goal`` (3,) m at
         :attr:`ExecutionConfig.speed_limit`, holding ``orientation`` (4,) xyzw and the ``gripper`` command,
         until ``stop()`` says so after a step."""
-        for point in self._line(self.world.ee_pose()[0], goal):
+        line = self._line(self.world.ee_pose()[0], goal)
+        self._tell(np.array(line), goal, None, gripper >= 0.5)
+        for point in line:
             self._step(point, orientation, gripper)
             if stop is not None and stop():
                 break
@@ -560,6 +566,7 @@ class Executor:
         here, here_q = self.world.ee_pose()
         path = self._transit_path(here, goal, over)
         turns = self._transit_orientations(here_q, orientation, len(path))
+        self._tell(path, goal, None, gripper >= 0.5)
         for point, quat in zip(path[1:], turns[1:], strict=True):
             self._step(point, quat, gripper)
         for _ in range(TRANSIT_SETTLE):  # the arm lags its commands: the DMP starts where the hand is
@@ -744,6 +751,7 @@ class Executor:
                 f"goal {fmt_vector(goal)} of {aim.task!r} is out of reach: {reason}", "unreachable"
             )
         rollout = self._gen_dmp(seg, start, goal)
+        self._tell(rollout, goal, monitor, seg.gripper >= 0.5)
         n = max(1, math.ceil(rollout.tau / self.world.dt - 1e-9))
         orientations = seg.orientation(np.arange(n + 1) / n, start_q, aim.turn)
         k = made = 0
@@ -759,6 +767,7 @@ class Executor:
                 continue
             k -= back
             back_to = self._adjust(rollout, back, touch, aim, monitor, depth)
+            self._tell(rollout, rollout.goal, monitor, seg.gripper >= 0.5)
             made += 1
             for _ in range(max(1, back // 3)):
                 self._step(back_to, orientations[k], seg.gripper)
@@ -875,6 +884,18 @@ class Executor:
         reason = self.world.step(position, orientation, gripper)
         if reason is not None:
             raise ExecutionError(f"simulation failed: {reason}", "simulation")
+
+    def _tell(
+        self, path: np.ndarray | DMPRollout, goal: np.ndarray, monitor: CollisionMonitor | None, closed: bool
+    ) -> None:
+        """Tell the observer, if any, of a movement starting or re-planned: a straight ``path`` (n, 3k) m or
+        a DMP ``rollout``'s plan from its current state (:func:`~taskcond.execution.observer.planned_path`),
+        towards ``goal`` (3k,) m."""
+        if self.observer is None:
+            return
+        if isinstance(path, DMPRollout):
+            path = planned_path(path, self.world.dt)
+        self.observer.moving(path, goal, monitor, closed)
 
     def _result(self, completed: bool, failure: str | None, kind: str | None) -> ExecutionResult:
         return ExecutionResult(

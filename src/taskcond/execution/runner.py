@@ -19,7 +19,7 @@ import multiprocessing
 import os
 import time
 from collections import Counter, defaultdict
-from collections.abc import Callable, Iterable, Iterator
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 from typing import Any
@@ -57,6 +57,7 @@ from taskcond.results import (
 from taskcond.sim.recording import VideoRecorder
 from taskcond.sim.scene import ALIASES
 from taskcond.tasks.registry import UnknownTaskError, get_task, list_tasks, make
+from taskcond.viz.episode import EpisodeInfo, EpisodeObserver, ObservedWorld, Observers
 
 PLANNERS = ("conditions", "none")
 """``conditions``: the look-ahead planner repairs the plan before execution (beyond the paper); ``none``:
@@ -313,10 +314,15 @@ def run_episode(
     on_plan: Callable[[Repair | None, tuple[Predicate, ...]], None] | None = None,
     start_state: str = "task",
     goal: tuple[Predicate, ...] | None = None,
+    video_size: tuple[int, int] | None = None,
+    observers: Sequence[EpisodeObserver] = (),
 ) -> EpisodeResult:
     """Reset the plan's task with ``seed``, repair its steps with the planner (with conditions and
     ``planner="conditions"``), and execute them with ``method``. ``on_plan`` is told the repair and the
-    goal before anything moves. ``start_state="random"`` draws the start from
+    goal before anything moves. ``video``: a captioned video of ``video_size`` (width, height) pixels
+    (:class:`~taskcond.viz.captions.CaptionedVideo`); ``observers`` (a Rerun recording) watch the episode
+    (:mod:`taskcond.viz.episode`); without either nothing is computed for them. ``start_state="random"``
+    draws the start from
     :func:`~taskcond.execution.kitchen.random_start` (a suite task keeps what its start needs,
     :class:`~taskcond.execution.kitchen.RandomStart`). ``goal`` (a free instruction only) replaces the goal
     derived from the plan as the success criterion; the derived one is recorded beside it.
@@ -337,12 +343,20 @@ def run_episode(
         env = KitchenEnv(RandomStart(get_task(plan.task_id)), gui=gui)
     else:
         env = make(plan.task_id, gui=gui)
-    recorder = VideoRecorder(video) if video is not None else None
+    if video is not None:
+        from taskcond.viz.captions import VIDEO_SIZE, CaptionedVideo
+
+        observers = (*observers, CaptionedVideo(video, video_size or VIDEO_SIZE))
+    watch = Observers(observers) if observers else None
     fixed: Repair | None = None
     result = None
     try:
         env.reset(seed=seed)
-        world = KitchenWorld(env, noise_sigma=noise, seed=seed, recorder=recorder)
+        world: KitchenWorld | ObservedWorld = KitchenWorld(env, noise_sigma=noise, seed=seed)
+        if watch is not None:
+            world = ObservedWorld(world, watch)  # type: ignore[arg-type]
+            watch.start(env, world, EpisodeInfo(plan.label, method, seed, plan.steps))
+            on_event, on_plan = watch.chain(on_event, "on_event"), watch.chain(on_plan, "on_plan")
         conditions = _memo(source) if source is not None else None
         planning = time.perf_counter()
         if conditions is not None and planner != "none":
@@ -359,7 +373,7 @@ def run_episode(
             on_plan(fixed, goal)
         steps = plan.steps if fixed is None else fixed.steps
         if fixed is None or fixed.impossible is None:
-            executor = Executor(world, library, method, source, config, on_event)
+            executor = Executor(world, library, method, source, config, on_event, watch)
             result = executor.run(steps)
         missing = [str(q) for q in goal if not env.truth.holds(q)]
         plan_goal_held = all(map(env.truth.holds, plan_goal)) if given else None
@@ -370,9 +384,11 @@ def run_episode(
         final = final_predicates(env)
         sim_seconds = world.time
         env_seconds = world.env_seconds
+    except BaseException:
+        if watch is not None:
+            watch.close()
+        raise
     finally:
-        if recorder is not None:
-            recorder.close()
         env.close()
     if result is None:
         assert fixed is not None and fixed.impossible is not None
@@ -386,7 +402,7 @@ def run_episode(
             if missing
             else "the run completed but the task's success check failed"
         )
-    return EpisodeResult(
+    episode = EpisodeResult(
         task=plan.label,
         method=method,
         seed=seed,
@@ -411,6 +427,10 @@ def run_episode(
         events=[] if result is None else [e.to_dict() for e in result.events],
         conditions={} if result is None else {k: v.to_dict() for k, v in result.conditions.items()},
     )
+    if watch is not None:
+        watch.finish(episode)
+        watch.close()
+    return episode
 
 
 def _memo(source: ConditionSource) -> Callable[[str], TaskCondition]:

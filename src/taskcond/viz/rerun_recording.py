@@ -1,0 +1,535 @@
+"""A Rerun recording (``.rrd``) of one episode in the suite: open it with ``rerun FILE.rrd`` (the viewer
+ships with the ``[viz]`` extra's ``rerun-sdk``).
+
+Everything lies on two timelines, ``sim_time`` (simulated seconds) and ``step`` (control steps since the
+reset). Entities, world frame, metres:
+
+- ``world/boxes/perceived``: each object's box as the executor perceived it (noise included), labelled,
+  logged at every observation; ``world/boxes/perceived_centres``: the perceived centres the executor aims
+  at; ``world/boxes/true``: the noise-free boxes (PyBullet's), every :data:`TRUE_EVERY` control steps;
+- ``world/arms/<arm>/ee`` and ``.../path``: each arm's end effector and the path it took;
+  ``world/arms/<arm>/gripper``: the gripper command (0 open, 1 closed) and ``.../opening``: the Franka's
+  finger opening (m), as series;
+- ``world/plan/path`` and ``world/plan/goal``: the planned path of the running movement (the DMP rollout of
+  Alg. 2 line 5, re-planned after each goal change, or a straight transit) and its goal, labelled with the
+  primitive; ``world/plan/target``: the target's centre (Alg. 2 line 4);
+  ``world/plan/moved_goals``: every goal Alg. 2 moved (lines 10–13), an arrow from the old goal to the
+  new, labelled with the colliding pair;
+- ``world/contacts``: the contacts after each control step as points, coloured by Alg. 2's judgement:
+  :data:`UNALLOWED` red, :data:`ALLOWED` green, contacts of nothing that moves (or DMP only, no condition)
+  grey; labelled with the pair;
+- ``world/camera``: the render camera's pose and intrinsics; ``world/camera/rgb`` and
+  ``world/camera/depth`` (m) every :data:`CAMERA_EVERY` simulated seconds;
+- ``events/<kind>``: every event of the trace as a log line at its time (kinds of
+  :class:`~taskcond.execution.events.Event`; ``failure`` as an error), ``events/plan`` the planner's
+  repair, ``events/outcome`` and ``events/goal_check`` at the end;
+- ``state/perceived`` and ``state/true``: the relations and states that start (``+``) or stop (``-``)
+  holding, as perceived at each observation and by the ground truth every :data:`TRUTH_EVERY` simulated
+  seconds; ``status``: what the robot is doing (:class:`~taskcond.viz.captions.Narrator`);
+  ``episode``, ``goal`` and ``outcome``: documents.
+
+:func:`read_recording` reads a recording back with Rerun's own reader (:class:`rerun.chunk.RrdReader`).
+"""
+
+from __future__ import annotations
+
+import math
+from collections import defaultdict
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from taskcond.envs.kitchen import RENDER_EYE, RENDER_TARGET
+from taskcond.execution.collisions import CollisionMonitor
+from taskcond.execution.events import Event
+from taskcond.execution.kitchen import final_predicates
+from taskcond.execution.world import Observation, Touch
+from taskcond.sim.camera import CameraSpec, render
+from taskcond.viz import require_rerun
+from taskcond.viz.captions import Narrator, outcome_lines
+from taskcond.viz.episode import ControlStep, EpisodeInfo, EpisodeObserver, ObservedWorld
+
+if TYPE_CHECKING:
+    from taskcond.envs.kitchen import KitchenEnv
+    from taskcond.execution.runner import EpisodeResult
+
+APPLICATION_ID = "taskcond"
+CAMERA_EVERY = 2.0
+"""Simulated seconds between two periodic camera images (RGB and depth). The CPU renderer costs 50–100 ms an
+image whatever its size (BENCHMARKS.md), about 10 control steps of an episode: denser images would break
+the recording's budget of 15% of an episode's wall time."""
+CAMERA_EVENTS = frozenset({"step", "raise", "collision", "post_missing", "failure"})
+"""Event kinds that also take a camera image, unless one was taken less than :data:`CAMERA_GAP` before."""
+CAMERA_GAP = 0.5
+"""Least simulated seconds between two camera images."""
+CAMERA_SIZE = (320, 240)
+"""Camera image size, (width, height) pixels."""
+TRUE_EVERY = 5
+"""Control steps between two logs of the noise-free boxes."""
+TRUTH_EVERY = 2.0
+"""Simulated seconds between two checks of the ground truth's relations and states (about 30 ms each: every
+relation of every pair of bodies); they are also checked at each top-level step and at a failure."""
+FLUSH_EVERY = 30
+"""Control steps whose end-effector poses, gripper commands and contacts are sent in one batch."""
+PATH_STRIDE = 3
+"""Every how many control steps a point of an arm's path is kept in ``world/arms/<arm>/path``."""
+
+UNALLOWED = (230, 40, 40)
+ALLOWED = (40, 200, 60)
+UNCHECKED = (150, 150, 150)
+PERCEIVED = (70, 140, 255)
+TRUE = (235, 235, 235)
+LEVELS = {"failure": "ERROR", "collision": "WARN", "post_missing": "WARN", "ignored": "WARN"}
+"""Log level of an event kind in ``events/<kind>``; INFO otherwise."""
+
+
+@dataclass
+class _Batch:
+    """Per-step data waiting to be sent (:data:`FLUSH_EVERY`)."""
+
+    steps: list[int] = field(default_factory=list)
+    times: list[float] = field(default_factory=list)
+    ee: list[np.ndarray] = field(default_factory=list)
+    gripper: list[float] = field(default_factory=list)
+    opening: list[float] = field(default_factory=list)
+    contacts: list[tuple[np.ndarray, list[tuple[int, int, int]], list[str]]] = field(default_factory=list)
+
+
+class RerunRecording(EpisodeObserver):
+    """Records an episode to the Rerun file ``path`` (module doc).
+
+    Args:
+        path: the ``.rrd`` file, written as the episode runs (its directory is made).
+        camera_every: simulated seconds between camera images; None for none.
+        camera_size: camera image size (width, height) pixels.
+
+    Raises:
+        RerunUnavailableError: rerun-sdk is not installed.
+    """
+
+    def __init__(
+        self,
+        path: str | Path,
+        camera_every: float | None = CAMERA_EVERY,
+        camera_size: tuple[int, int] = CAMERA_SIZE,
+    ) -> None:
+        require_rerun()
+        self.path = Path(path)
+        self.camera_every = camera_every
+        self.camera = CameraSpec(
+            eye=RENDER_EYE, target=RENDER_TARGET, width=camera_size[0], height=camera_size[1], far=4.0
+        )
+        self.rec: Any = None
+        self.narrator: Narrator | None = None
+        self._env: KitchenEnv | None = None
+        self._world: ObservedWorld | None = None
+        self._monitor: CollisionMonitor | None = None
+        self._closed_gripper = False
+        self._batch = _Batch()
+        self._paths: dict[str, list[np.ndarray]] = defaultdict(list)
+        self._perceived: frozenset = frozenset()
+        self._true: frozenset[str] = frozenset()
+        self._moved: list[tuple[np.ndarray, np.ndarray, str]] = []
+        self._next_camera = 0.0
+        self._last_camera = -math.inf
+        self._next_truth = 0.0
+        self._finished = False
+
+    # ------------------------------------------------------------------------------------ observer
+    def start(self, env: KitchenEnv, world: ObservedWorld, info: EpisodeInfo) -> None:
+        import rerun as rr
+
+        self.path.parent.mkdir(parents=True, exist_ok=True)
+        self.rec = rr.RecordingStream(APPLICATION_ID, recording_id=f"{info.label}-{info.method}-{info.seed}")
+        self.rec.save(self.path)
+        self.rec.set_log_time_enabled(False)
+        self._env, self._world, self.narrator = env, world, Narrator(info)
+        self.rec.log("world", rr.ViewCoordinates.RIGHT_HAND_Z_UP, static=True)
+        self.rec.log(
+            "episode",
+            rr.TextDocument(
+                f"# {info.label}\n\nmethod {info.method}, seed {info.seed}\n\nsteps: "
+                + "; ".join(info.steps),
+                media_type="text/markdown",
+            ),
+            static=True,
+        )
+        self._log_camera_pose()
+        self._at(env.steps, world.time)
+        self._log_true_boxes()
+        self._check_truth(world.time)
+
+    def on_plan(self, repair, goal) -> None:  # type: ignore[no-untyped-def]
+        import rerun as rr
+
+        if self.rec is None:
+            return
+        if repair is None:
+            text = "plan not checked by the planner"
+        elif repair.impossible is not None:
+            text = f"planner: cannot be done: {repair.impossible}"
+        elif repair.changes:
+            text = f"planner repaired the plan to {'; '.join(repair.steps)}: " + "; ".join(
+                map(str, repair.changes)
+            )
+        else:
+            text = "planner: plan checked, no change"
+        self.rec.log("events/plan", rr.TextLog(text, level="INFO"))
+        self.rec.log("goal", rr.TextDocument("goal: " + (", ".join(map(str, goal)) or "none")), static=True)
+
+    def on_event(self, event: Event) -> None:
+        import rerun as rr
+
+        if self.rec is None or self.narrator is None or self._world is None:
+            return
+        self.narrator.on_event(event)
+        self._at(round(event.time / self._world.dt), event.time)
+        self.rec.log(f"events/{event.kind}", rr.TextLog(event.message, level=LEVELS.get(event.kind, "INFO")))
+        if event.kind == "primitive" and event.data.get("target_center") is not None:
+            self.rec.log(
+                "world/plan/target",
+                rr.Points3D([event.data["target_center"]], labels=[event.data["target"]], radii=0.008),
+            )
+        elif event.kind == "collision":
+            self._moved_goal(event)
+        self._log_status(event.time)
+        if event.kind in ("step", "failure"):
+            self._check_truth(event.time)
+        if event.kind in CAMERA_EVENTS and event.time >= self._last_camera + CAMERA_GAP - 1e-9:
+            self._log_camera(event.time)
+
+    def moving(
+        self, path: np.ndarray, goal: np.ndarray, monitor: CollisionMonitor | None, closed: bool
+    ) -> None:
+        import rerun as rr
+
+        if self.rec is None or self.narrator is None or self._world is None:
+            return
+        self._monitor, self._closed_gripper = monitor, closed
+        self._at(self._world.env.steps, self._world.time)
+        arms = len(goal) // 3
+        task = self.narrator.task
+        self.rec.log(
+            "world/plan/path",
+            rr.LineStrips3D([path[:, 3 * a : 3 * a + 3] for a in range(arms)], labels=[task] * arms),
+        )
+        self.rec.log(
+            "world/plan/goal",
+            rr.Points3D(np.reshape(goal, (arms, 3)), labels=[f"goal of {task}"] * arms, radii=0.01),
+        )
+
+    def observed(self, observation: Observation) -> None:
+        import rerun as rr
+
+        if self.rec is None or self.narrator is None or self._world is None:
+            return
+        self.narrator.observed(observation)
+        self._at(self._world.env.steps, self._world.time)
+        names = sorted(observation.boxes)
+        lower = np.array([observation.boxes[n][0] for n in names])
+        upper = np.array([observation.boxes[n][1] for n in names])
+        self.rec.log(
+            "world/boxes/perceived",
+            rr.Boxes3D(
+                centers=(lower + upper) / 2, half_sizes=(upper - lower) / 2, labels=names, colors=PERCEIVED
+            ),
+        )
+        centred = sorted(observation.centers)
+        self.rec.log(
+            "world/boxes/perceived_centres",
+            rr.Points3D(
+                [observation.centers[n] for n in centred], labels=centred, colors=PERCEIVED, radii=0.005
+            ),
+        )
+        self._log_changes("state/perceived", self._perceived, observation.predicates)
+        self._perceived = observation.predicates
+
+    def stepped(self, step: ControlStep) -> None:
+        if self.rec is None or self._world is None or self._env is None:
+            return
+        world, env = self._world, self._env
+        batch = self._batch
+        batch.steps.append(step.index)
+        batch.times.append(step.time)
+        batch.ee.append(world.ee_pose(len(world.arms))[0])
+        batch.gripper.append(step.gripper)
+        batch.opening.append(env.robot.finger_width())
+        batch.contacts.append(self._contacts(world.touches()))
+        if step.index % TRUE_EVERY == 0:
+            self._at(step.index, step.time)
+            self._log_true_boxes()
+        if step.time >= self._next_camera - 1e-9:
+            self._at(step.index, step.time)
+            self._log_camera(step.time)
+        if step.time >= self._next_truth - 1e-9:
+            self._at(step.index, step.time)
+            self._check_truth(step.time)
+        if len(batch.steps) >= FLUSH_EVERY:
+            self._flush()
+
+    def finish(self, result: EpisodeResult) -> None:
+        import rerun as rr
+
+        if self.rec is None or self._world is None or self._finished:
+            return
+        self._finished = True
+        self._flush()
+        steps = round(result.sim_seconds / self._world.dt)
+        self._at(steps, result.sim_seconds)
+        text = " ".join(line.text for line in outcome_lines(result))
+        self.rec.log("events/outcome", rr.TextLog(text, level="INFO" if result.success else "ERROR"))
+        missing = ", ".join(result.goal_missing)
+        self.rec.log(
+            "events/goal_check",
+            rr.TextLog(
+                f"goal {', '.join(result.goal) or 'none'}: " + (f"missing {missing}" if missing else "holds"),
+                level="INFO" if not missing else "WARN",
+            ),
+        )
+        self.rec.log("outcome", rr.TextDocument(text), static=True)
+
+    def close(self) -> None:
+        if self.rec is not None:
+            self._flush()
+            self.rec.flush()
+            self.rec.disconnect()
+            self.rec = None
+
+    # --------------------------------------------------------------------------------------- parts
+    def _at(self, step: int, time: float) -> None:
+        self.rec.set_time("step", sequence=int(step))
+        self.rec.set_time("sim_time", duration=float(time))
+
+    def _contacts(
+        self, touches: tuple[Touch, ...]
+    ) -> tuple[np.ndarray, list[tuple[int, int, int]], list[str]]:
+        """Positions (n, 3), colours and labels of ``touches`` as Alg. 2 judges them (module doc)."""
+        monitor, colours = self._monitor, []
+        for touch in touches:
+            if monitor is None:
+                colours.append(UNCHECKED)
+            elif monitor.unallowed([touch], self._closed_gripper) is touch:
+                colours.append(UNALLOWED)
+            elif _moves(touch, monitor, self._closed_gripper):
+                colours.append(ALLOWED)
+            else:
+                colours.append(UNCHECKED)
+        positions = np.array([t.position for t in touches]).reshape(-1, 3)
+        return positions, colours, [f"{t.a} / {t.b}" for t in touches]
+
+    def _flush(self) -> None:
+        """Send the batched per-step data (:class:`_Batch`) as columns, and the arms' paths so far."""
+        import rerun as rr
+
+        batch = self._batch
+        if not batch.steps or self._world is None:
+            return
+        index = [
+            rr.TimeColumn("step", sequence=batch.steps),
+            rr.TimeColumn("sim_time", duration=batch.times),
+        ]
+        ee = np.array(batch.ee)
+        for a, arm in enumerate(self._world.arms[: ee.shape[1] // 3]):
+            where = f"world/arms/{_part(arm)}"
+            points = ee[:, 3 * a : 3 * a + 3]
+            self.rec.send_columns(f"{where}/ee", indexes=index, columns=rr.Points3D.columns(positions=points))
+            self._paths[arm] += list(points[::PATH_STRIDE])
+        self.rec.send_columns(
+            "world/arms/gripper/gripper", indexes=index, columns=rr.Scalars.columns(scalars=batch.gripper)
+        )
+        self.rec.send_columns(
+            "world/arms/gripper/opening", indexes=index, columns=rr.Scalars.columns(scalars=batch.opening)
+        )
+        counts = [len(c[1]) for c in batch.contacts]
+        if sum(counts):
+            positions = np.concatenate([c[0] for c in batch.contacts])
+            colours = [col for c in batch.contacts for col in c[1]]
+            labels = [lab for c in batch.contacts for lab in c[2]]
+            self.rec.send_columns(
+                "world/contacts",
+                indexes=index,
+                columns=rr.Points3D.columns(
+                    positions=positions, colors=colours, labels=labels, radii=[0.006] * len(labels)
+                ).partition(counts),
+            )
+        self._at(batch.steps[-1], batch.times[-1])
+        for arm, points in self._paths.items():
+            self.rec.log(f"world/arms/{_part(arm)}/path", rr.LineStrips3D([np.array(points)]))
+        self._batch = _Batch()
+
+    def _log_true_boxes(self) -> None:
+        import rerun as rr
+
+        perception = self._world.perception  # type: ignore[union-attr]
+        boxes = {n: perception.ground_truth_box(n) for n in perception._objects}
+        boxes |= {g.name: perception.gripper_box(g) for g in perception.scene.grippers}
+        names = sorted(boxes)
+        lower = np.array([boxes[n].lower for n in names])
+        upper = np.array([boxes[n].upper for n in names])
+        self.rec.log(
+            "world/boxes/true",
+            rr.Boxes3D(
+                centers=(lower + upper) / 2, half_sizes=(upper - lower) / 2, labels=names, colors=TRUE
+            ),
+        )
+
+    def _log_camera_pose(self) -> None:
+        import rerun as rr
+
+        spec = self.camera
+        eye, target = np.array(spec.eye), np.array(spec.target)
+        forward = (target - eye) / np.linalg.norm(target - eye)
+        right = np.cross(forward, spec.up)
+        right /= np.linalg.norm(right)
+        down = np.cross(forward, right)
+        self.rec.log(
+            "world/camera",
+            rr.Transform3D(translation=eye, mat3x3=np.column_stack([right, down, forward])),
+            static=True,
+        )
+        self.rec.log(
+            "world/camera",
+            rr.Pinhole(
+                focal_length=float(spec.focal_length_px),
+                width=spec.width,
+                height=spec.height,
+                camera_xyz=rr.ViewCoordinates.RDF,
+            ),
+            static=True,
+        )
+
+    def _log_camera(self, time: float) -> None:
+        """A camera image now (unless there is none), the next periodic one :attr:`camera_every` later."""
+        import rerun as rr
+
+        if self.camera_every is None:
+            self._next_camera = math.inf
+            return
+        self._last_camera, self._next_camera = time, time + self.camera_every
+        frame = render(self._env.scene.client, self.camera)  # type: ignore[union-attr]
+        self.rec.log("world/camera/rgb", rr.Image(frame.rgb).compress(jpeg_quality=85))
+        depth = np.minimum(frame.depth, 65.0)
+        self.rec.log("world/camera/depth", rr.DepthImage((depth * 1000).astype(np.uint16), meter=1000.0))
+
+    def _check_truth(self, time: float) -> None:
+        self._next_truth = time + TRUTH_EVERY
+        now = frozenset(final_predicates(self._env))  # type: ignore[arg-type]
+        self._log_changes("state/true", self._true, now)
+        self._true = now
+
+    def _log_changes(self, entity: str, before: frozenset, now: frozenset) -> None:
+        import rerun as rr
+
+        started = sorted(map(str, now - before))
+        stopped = sorted(map(str, before - now))
+        if not started and not stopped:
+            return
+        lines = [f"+ {p}" for p in started] + [f"- {p}" for p in stopped]
+        self.rec.log(entity, rr.TextLog("\n".join(lines), level="DEBUG"))
+        self.rec.log(f"{entity}/now", rr.TextDocument("\n".join(sorted(map(str, now)))))
+
+    def _log_status(self, time: float) -> None:
+        import rerun as rr
+
+        lines = self.narrator.lines(time)  # type: ignore[union-attr]
+        self.rec.log("status", rr.TextDocument("\n".join(line.text for line in lines)))
+
+    def _moved_goal(self, event: Event) -> None:
+        """The goal Alg. 2 moved (lines 10–13): every one so far as arrows, the contact as a point."""
+        import rerun as rr
+
+        goal = np.array(event.data["goal"][:3])
+        shift = np.array(event.data["shift"])
+        a, b = event.data["collision"]
+        self._moved.append(
+            (goal - shift, shift, f"{a} / {b}: goal moved {np.linalg.norm(shift) * 100:.1f} cm")
+        )
+        self.rec.log(
+            "world/plan/moved_goals",
+            rr.Arrows3D(
+                origins=[m[0] for m in self._moved],
+                vectors=[m[1] for m in self._moved],
+                labels=[m[2] for m in self._moved],
+                colors=UNALLOWED,
+            ),
+        )
+        self.rec.log(
+            "world/plan/collision",
+            rr.Points3D([event.data["position"]], labels=[f"{a} / {b}"], colors=UNALLOWED, radii=0.01),
+        )
+
+
+def _moves(touch: Touch, monitor: CollisionMonitor, closed: bool) -> bool:
+    """``touch`` involves what Alg. 2 checks: a gripper, or while closed an object it holds."""
+    from taskcond.conditions import is_gripper
+
+    held = closed and (touch.a in monitor.held or touch.b in monitor.held)
+    return is_gripper(touch.a) or is_gripper(touch.b) or held
+
+
+def _part(name: str) -> str:
+    """``name`` as one entity path part (``kinova gripper`` → ``kinova_gripper``)."""
+    return name.replace(" ", "_")
+
+
+# ------------------------------------------------------------------------------------------ reading
+@dataclass(frozen=True)
+class Row:
+    """One logged row of an entity: its ``step`` and ``sim_time`` (s; None when static) and its
+    components by name (``Points3D:positions``, ``TextLog:text``) as Python values."""
+
+    step: int | None
+    time: float | None
+    values: dict[str, Any]
+
+
+def read_recording(path: str | Path) -> dict[str, list[Row]]:
+    """Every entity of the recording ``path`` (its first recording store) → its rows in step order, read
+    with Rerun's own reader (:class:`rerun.chunk.RrdReader`).
+
+    Raises:
+        RerunUnavailableError: rerun-sdk is not installed.
+        ValueError: not a Rerun file with a recording.
+    """
+    require_rerun()
+    from rerun.chunk import RrdReader
+
+    out: dict[str, list[Row]] = defaultdict(list)
+    for chunk in RrdReader(str(path)).stream():
+        batch = chunk.to_record_batch()
+        columns = {name: batch.column(name) for name in batch.schema.names}
+        steps = columns.pop("step", None)
+        times = columns.pop("sim_time", None)
+        columns.pop("rerun.controls.RowId", None)
+        columns.pop("log_time", None)
+        values = {name: column.to_pylist() for name, column in columns.items()}
+        for k in range(batch.num_rows):
+            out[chunk.entity_path].append(
+                Row(
+                    None if steps is None else steps[k].as_py(),
+                    None if times is None else _seconds(times[k]),
+                    {name: v[k] for name, v in values.items()},
+                )
+            )
+    return {
+        entity: sorted(rows, key=lambda r: (r.step is not None, r.step or 0)) for entity, rows in out.items()
+    }
+
+
+def _seconds(value: Any) -> float | None:
+    """A ``sim_time`` cell (a duration) in seconds."""
+    raw = value.cast("int64").as_py() if hasattr(value, "cast") else value.value
+    return None if raw is None else raw / 1e9
+
+
+__all__ = [
+    "ALLOWED",
+    "CAMERA_EVERY",
+    "UNALLOWED",
+    "UNCHECKED",
+    "RerunRecording",
+    "Row",
+    "read_recording",
+]
