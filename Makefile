@@ -2,7 +2,7 @@
 PYTHON ?= python3
 VENV ?= .venv
 BIN := $(VENV)/bin
-EXTRAS ?= all,server,dev
+EXTRAS ?= all,server,dev,viz
 
 .PHONY: install demo test lint format bench clean
 

@@ -16,6 +16,8 @@ from typing import Annotated, NoReturn
 
 import typer
 
+from taskcond import cli_viz
+from taskcond.cli_viz import RerunAllOption, RerunEvalOption, RerunRunOption, VideoSizeOption
 from taskcond.conditions import ConditionError
 from taskcond.generator import PROMPT_VERSION
 from taskcond.llm.base import LLMError
@@ -678,6 +680,8 @@ def run(
         typer.Option("--video", help="Video (.mp4/.gif); default runs/<task>-<method>-<seed>.mp4."),
     ] = None,
     no_video: Annotated[bool, typer.Option("--no-video", help="Do not record a video.")] = False,
+    size: VideoSizeOption = "640x480",
+    rerun: RerunRunOption = None,
     trace: Annotated[
         Path | None, typer.Option("--trace", help="JSON trace; default runs/<task>-<method>-<seed>.json.")
     ] = None,
@@ -715,6 +719,8 @@ def run(
         fail(f"--start {start!r}: use one of {', '.join(STARTS)}")
     if video is not None and video.suffix.lower() not in (".mp4", ".gif"):
         fail(f"--video {video}: use a .mp4 or .gif file name")
+    video_size = cli_viz.video_size(size)
+    cli_viz.rerun_ready(rerun)
 
     def announce(scene: str) -> None:
         typer.echo(f"decomposing the instruction with the LLM ({scene} scene) ...", err=True)
@@ -770,6 +776,8 @@ def run(
         planner=planner,
         on_plan=planned,
         start_state=start,
+        video_size=video_size,
+        observers=cli_viz.run_observers(rerun),
     )
     trace_path.parent.mkdir(parents=True, exist_ok=True)
     trace_path.write_text(
@@ -794,7 +802,11 @@ def run(
     typer.echo(
         f"{plan.label}: {outcome}; {result.sim_seconds:.1f} s simulated, {result.wall_seconds:.1f} s wall"
     )
-    typer.echo(f"trace: {trace_path}" + (f"; video: {video_path}" if video_path else ""))
+    typer.echo(
+        f"trace: {trace_path}"
+        + (f"; video: {video_path}" if video_path else "")
+        + (f"; recording: {rerun} (open with `rerun {rerun}`)" if rerun else "")
+    )
     if not result.success:
         raise typer.Exit(1)
 
@@ -829,6 +841,8 @@ class ExecutionSettings:
     planner: str = "conditions"
     start: str = "task"
     novel_primitive: bool = False
+    rerun: Path | None = None
+    rerun_all: bool = False
 
 
 def _run_episodes(
@@ -860,6 +874,7 @@ def _run_episodes(
         fail(f"--backend {settings.backend!r}: use one of {', '.join(BACKENDS)}")
     if settings.planner not in PLANNERS:
         fail(f"--planner {settings.planner!r}: use one of {', '.join(PLANNERS)}")
+    cli_viz.rerun_ready(settings.rerun, suffix=None)
     library_dir = settings.skills or default_library_dir()
     library = _library(settings.skills) if any(j.method != IMAGE_IL for j in jobs) else None
     il_dir = _il_policy() if any(j.method == IMAGE_IL for j in jobs) else None
@@ -932,11 +947,16 @@ def _run_episodes(
             instructions=instructions,
             il_dir=il_dir,
             novel_primitive=settings.novel_primitive,
+            rerun=settings.rerun,
+            rerun_all=settings.rerun_all,
         )
     except RuntimeError as exc:  # Ray missing or unreachable
         fail(str(exc))
     bar.close()
     _crashed(crashed)
+    kept = [r["rerun"] for r in records if r.get("rerun") and Job.key_of(r) in {j.key for j in todo}]
+    if settings.rerun is not None:
+        typer.echo(f"{len(kept)} recording(s) in {settings.rerun} (open one with `rerun FILE.rrd`)", err=True)
     config = results.config
     return records, config.to_dict() | {"digest": config.digest, "crashed": len(crashed)}
 
@@ -1106,10 +1126,22 @@ def _eval_command(kind: str):
                 "both).",
             ),
         ] = False,
+        rerun: RerunEvalOption = None,
+        rerun_all: RerunAllOption = False,
     ) -> None:
         _check_start(start)
         settings = ExecutionSettings(
-            workers, noise, llm, skills, backend, ray_address, planner, start, novel_primitive=novel_primitive
+            workers,
+            noise,
+            llm,
+            skills,
+            backend,
+            ray_address,
+            planner,
+            start,
+            novel_primitive=novel_primitive,
+            rerun=rerun,
+            rerun_all=rerun_all,
         )
         _eval_execution(kind, episodes, method, as_json, out, task, seed, settings)
 
@@ -1157,6 +1189,8 @@ def eval_instructions(
     planner: PlannerOption = "conditions",
     backend: BackendOption = "local",
     ray_address: RayAddressOption = None,
+    rerun: RerunEvalOption = None,
+    rerun_all: RerunAllOption = False,
 ) -> None:
     """Free instructions from random starts (beyond the paper): each decomposed by the LLM (cached) as in
     `taskcond run`, run per method, judged by its shipped goal predicates (ground truth); the record also
@@ -1191,7 +1225,9 @@ def eval_instructions(
     jobs = jobs_for([i.id for i in chosen], methods, episodes, seed)
     where = "" if start == "task" else f"-{start}"
     out = out or Path("runs") / f"eval-instructions{where}.jsonl"
-    settings = ExecutionSettings(workers, noise, llm, skills, backend, ray_address, planner, start)
+    settings = ExecutionSettings(
+        workers, noise, llm, skills, backend, ray_address, planner, start, rerun=rerun, rerun_all=rerun_all
+    )
     records, config = _run_episodes(jobs, out, settings, "instructions", instructions=path.resolve())
     if config["crashed"]:
         raise typer.Exit(1)
@@ -1426,6 +1462,11 @@ def _without_il(spec):
             typer.echo(f"{spec.name}: the image-il column is not run: {exc}", err=True)
         return replace(spec, blocks=blocks)
     return spec
+
+
+app.command(help="Run one stored episode of a results file again, to a Rerun recording or a video.")(
+    cli_viz.replay
+)
 
 
 def main(args: list[str] | None = None) -> NoReturn:

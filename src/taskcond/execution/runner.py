@@ -602,6 +602,9 @@ class WorkerArgs:
         il_dir: the baseline's checkpoint directory (None when it does not run).
         novel_primitive: each episode leaves one primitive out of the LLM's examples.
         llm_threads: CPU threads of the worker's embedded LLM (None: every core; :func:`llm_threads`).
+        rerun: a directory for a Rerun recording of each failed episode (None: none;
+            :class:`~taskcond.viz.rerun_recording.EvalRecordings`).
+        rerun_all: keep the recording of every episode there, not only of the failed ones.
     """
 
     library_dir: str
@@ -613,6 +616,8 @@ class WorkerArgs:
     il_dir: str | None = None
     novel_primitive: bool = False
     llm_threads: int | None = None
+    rerun: str | None = None
+    rerun_all: bool = False
 
 
 def llm_threads(workers: int, backend: str = "local") -> int | None:
@@ -642,7 +647,14 @@ def _init_worker(args: WorkerArgs) -> None:
         decomposer=llm_decomposer(args.llm, threads=args.llm_threads),
         il_dir=args.il_dir,
         novel_primitive=args.novel_primitive,
+        recordings=None if args.rerun is None else _recordings(Path(args.rerun), args.rerun_all),
     )
+
+
+def _recordings(directory: Path, every: bool) -> Any:
+    from taskcond.viz.rerun_recording import EvalRecordings
+
+    return EvalRecordings(directory, every)
 
 
 def load_policy(directory: Path) -> Any:
@@ -715,13 +727,17 @@ def run_policy_episode(plan: RunPlan, seed: int, policy: Any, video: Path | None
     )
 
 
-def _run_job(job: Job) -> dict[str, Any]:
+def _run_job(job: Job, observers: Sequence[EpisodeObserver] = ()) -> dict[str, Any]:
     """One episode as a results record: a suite task, or with an instructions file the instruction of
     that id (its plan from the LLM, judged by its goal; a plan the LLM cannot give is a failed episode,
-    ``decomposition``). An exception is returned as a ``crashed`` record (not a result: a resumed
-    evaluation runs it again)."""
+    ``decomposition``), watched by ``observers`` and, with :attr:`WorkerArgs.rerun`, recorded (the
+    record's ``rerun`` names a recording kept). An exception is returned as a ``crashed`` record (not a
+    result: a resumed evaluation runs it again)."""
     from taskcond.execution.decompose import DecompositionError
 
+    recording = None if _WORKER.get("recordings") is None else _WORKER["recordings"].recording(job)
+    if recording is not None:
+        observers = (*observers, recording)
     sources: dict[str, ConditionSource | None] = _WORKER["sources"]
     method: Method = job.method  # type: ignore[assignment]
     instruction = _WORKER["instructions"].get(job.task)
@@ -757,17 +773,20 @@ def _run_job(job: Job) -> dict[str, Any]:
             planner=_WORKER["planner"],
             start_state=_WORKER["start"],
             goal=goal,
+            observers=observers,
         )
         result.left_out = left_out
-        return result.summary() | extra
+        kept = {} if recording is None else _WORKER["recordings"].keep(recording, bool(result.success))
+        return result.summary() | extra | kept
     except Exception as exc:
+        kept = {} if recording is None else _WORKER["recordings"].keep(recording, False)
         return {
             "task": job.task,
             "method": job.method,
             "seed": job.seed,
             "crashed": True,
             "error": f"{type(exc).__name__}: {' '.join(str(exc).split())[:300]}",
-        }
+        } | kept
 
 
 def unplanned(job: Job, instruction: Any, reason: str, planner: str, start: str) -> dict[str, Any]:
@@ -791,12 +810,13 @@ def unplanned(job: Job, instruction: Any, reason: str, planner: str, start: str)
     }
 
 
-def run_job(job: Job, init_args: WorkerArgs) -> dict[str, Any]:
+def run_job(job: Job, init_args: WorkerArgs, observers: Sequence[EpisodeObserver] = ()) -> dict[str, Any]:
     """:func:`_run_job` in a process that keeps its skill library, condition sources and policy between
-    calls with the same ``init_args`` (:class:`WorkerArgs`): a Ray task's entry point."""
+    calls with the same ``init_args`` (:class:`WorkerArgs`): a Ray task's entry point, and a stored
+    episode's replay (:mod:`taskcond.viz.replay`), watched by ``observers``."""
     if _WORKER.get("args") != init_args:
         _init_worker(init_args)
-    return _run_job(job)
+    return _run_job(job, observers)
 
 
 BACKENDS = ("local", "ray")
@@ -845,13 +865,16 @@ def evaluate(
     instructions: Path | None = None,
     il_dir: Path | None = None,
     novel_primitive: bool = False,
+    rerun: Path | None = None,
+    rerun_all: bool = False,
 ) -> list[dict[str, Any]]:
     """Run the jobs that ``results`` (the file of this configuration) does not hold yet with ``planner``
     from ``start`` (a job's task an instruction id of the file ``instructions``, if given; the baseline's
     checkpoint ``il_dir`` for its jobs; each leaving out one primitive's examples with ``novel_primitive``,
-    :func:`novel_primitive_source`), appending each record as its episode ends; returns every result of
-    ``jobs``. Crashed episodes are appended marked ``crashed`` and are not results: the next call runs
-    them again."""
+    :func:`novel_primitive_source`; a Rerun recording of each failed episode, or of every one with
+    ``rerun_all``, in the directory ``rerun``), appending each record as its episode ends; returns every
+    result of ``jobs``. Crashed episodes are appended marked ``crashed`` and are not results: the next call
+    runs them again."""
     wanted = {j.key for j in jobs}
     done = results.done(Job.key_of)
     todo = [j for j in jobs if j.key not in done]
@@ -865,6 +888,8 @@ def evaluate(
         None if il_dir is None else str(il_dir),
         novel_primitive,
         llm_threads(workers, backend),
+        None if rerun is None else str(rerun),
+        rerun_all,
     )
     for rec in run_jobs(todo, args, workers, backend, ray_address):
         results.append(rec)

@@ -461,6 +461,43 @@ class RerunRecording(EpisodeObserver):
         )
 
 
+class EvalRecordings:
+    """A Rerun recording of each episode of an evaluation in ``directory``, named by :func:`episode_name`;
+    kept for a failed (or crashed) episode, for every episode with ``every``. A recording is written
+    beside its final name (``.partial``) while its episode runs."""
+
+    def __init__(self, directory: Path, every: bool = False) -> None:
+        require_rerun()
+        self.directory = directory
+        self.every = every
+
+    def recording(self, job: Any) -> RerunRecording:
+        """The recording of ``job`` (a :class:`~taskcond.results.Job`)."""
+        name = episode_name(job.task, job.method, job.seed)
+        return RerunRecording(self.directory / f"{name}.rrd.partial")
+
+    def keep(self, recording: RerunRecording, success: bool) -> dict[str, str]:
+        """Close ``recording``; keep it under its final name unless its episode succeeded (and not
+        :attr:`every`). Returns ``{"rerun": path}`` for a kept recording, else nothing."""
+        recording.close()
+        partial = recording.path
+        if not partial.exists():  # the episode never started (no plan, or the baseline)
+            return {}
+        if success and not self.every:
+            partial.unlink()
+            return {}
+        final = partial.with_suffix("")
+        partial.replace(final)
+        return {"rerun": str(final)}
+
+
+def episode_name(task: str, method: str, seed: int) -> str:
+    """A file name stem for an episode: ``<task>-<method>-<seed>``, the task's characters other than
+    letters, digits, ``.``, ``_`` and ``-`` replaced by ``_``."""
+    safe = "".join(c if c.isalnum() or c in "._-" else "_" for c in task)[:80]
+    return f"{safe}-{method.replace('+', '_')}-{seed}"
+
+
 def _moves(touch: Touch, monitor: CollisionMonitor, closed: bool) -> bool:
     """``touch`` involves what Alg. 2 checks: a gripper, or while closed an object it holds."""
     from taskcond.conditions import is_gripper
@@ -529,7 +566,9 @@ __all__ = [
     "CAMERA_EVERY",
     "UNALLOWED",
     "UNCHECKED",
+    "EvalRecordings",
     "RerunRecording",
     "Row",
+    "episode_name",
     "read_recording",
 ]
