@@ -75,6 +75,26 @@ def test_recording_changes_nothing_in_the_episode(recorded) -> None:
     )
 
 
+def test_an_observer_that_raises_stops_watching_and_the_episode_goes_on(library, recorded) -> None:
+    from taskcond.viz.episode import EpisodeObserver
+
+    class Broken(EpisodeObserver):
+        closed = False
+
+        def stepped(self, step) -> None:  # type: ignore[no-untyped-def]
+            raise KeyError("gripper")
+
+        def close(self) -> None:
+            Broken.closed = True
+
+    plain, _, _ = recorded
+    with pytest.warns(RuntimeWarning, match="Broken stopped watching the episode: KeyError"):
+        result = run_episode(
+            plan_run("grasp-bottle"), "llm", 1000, library, Strict(), NOISE, observers=[Broken()]
+        )
+    assert result.events == plain.events and Broken.closed
+
+
 def test_every_event_of_the_trace_is_a_log_line_at_its_time(recorded) -> None:
     _, result, data = recorded
     logged = sorted(

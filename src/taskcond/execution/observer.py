@@ -43,9 +43,12 @@ PLANNED_POINTS = 60
 
 def planned_path(rollout: DMPRollout, dt: float) -> np.ndarray:
     """The positions (n, d) the rollout will pass from its current state to the end of its duration τ,
-    m, in at most :data:`PLANNED_POINTS` equal steps of at least ``dt`` s; the rollout itself is not
-    changed (a copy is integrated)."""
-    copy = DMPRollout(rollout.params, rollout.y0, rollout.goal, tau=rollout.tau, history=0)
+    m, in at most :data:`PLANNED_POINTS` equal steps of at least ``dt`` s, integrated with sub-steps ten
+    times as long as the rollout's; the rollout itself is not changed (a copy is integrated)."""
+    coarse = rollout.tau / 50  # a drawing: sub-steps ten times the rollout's own
+    copy = DMPRollout(
+        rollout.params, rollout.y0, rollout.goal, tau=rollout.tau, max_substep=coarse, history=0
+    )
     copy.restore(rollout.state())
     remaining = max(rollout.tau - rollout.time, 0.0)
     n = max(1, min(PLANNED_POINTS, math.ceil(remaining / dt - 1e-9)))

@@ -375,6 +375,8 @@ def run_episode(
         if fixed is None or fixed.impossible is None:
             executor = Executor(world, library, method, source, config, on_event, watch)
             result = executor.run(steps)
+        if watch is not None:
+            watch.ended()
         missing = [str(q) for q in goal if not env.truth.holds(q)]
         plan_goal_held = all(map(env.truth.holds, plan_goal)) if given else None
         if plan.task_id is None:

@@ -12,6 +12,7 @@ simulator without stepping it.
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
@@ -90,8 +91,11 @@ class EpisodeObserver:
     def stepped(self, step: ControlStep) -> None:
         """A control step ended."""
 
+    def ended(self) -> None:
+        """Nothing moves any more; the environment is still open (its final state)."""
+
     def finish(self, result: EpisodeResult) -> None:
-        """The episode ended with ``result`` (the environment may be closed already)."""
+        """The episode ended with ``result`` (the environment is closed)."""
 
     def close(self) -> None:
         """Release files; called once, also when the episode raised."""
@@ -99,14 +103,26 @@ class EpisodeObserver:
 
 class Observers(EpisodeObserver):
     """Several observers told everything in turn (the executor's
-    :class:`~taskcond.execution.observer.ExecutionObserver` too)."""
+    :class:`~taskcond.execution.observer.ExecutionObserver` too). An observer that raises is not told
+    anything more but :meth:`close`, with a warning: watching an episode never stops it."""
 
     def __init__(self, observers: Sequence[EpisodeObserver]) -> None:
-        self.observers = tuple(observers)
+        self.observers = list(observers)
 
     def _each(self, method: str, *args: Any) -> None:
-        for observer in self.observers:
-            getattr(observer, method)(*args)
+        for observer in list(self.observers):
+            try:
+                getattr(observer, method)(*args)
+            except Exception as exc:
+                if method == "close":
+                    raise
+                warnings.warn(
+                    f"{type(observer).__name__} stopped watching the episode: {type(exc).__name__}: {exc}",
+                    RuntimeWarning,
+                    stacklevel=2,
+                )
+                self.observers.remove(observer)
+                observer.close()
 
     def start(self, env: KitchenEnv, world: ObservedWorld, info: EpisodeInfo) -> None:
         self._each("start", env, world, info)
@@ -127,6 +143,9 @@ class Observers(EpisodeObserver):
 
     def stepped(self, step: ControlStep) -> None:
         self._each("stepped", step)
+
+    def ended(self) -> None:
+        self._each("ended")
 
     def finish(self, result: EpisodeResult) -> None:
         self._each("finish", result)

@@ -6,7 +6,8 @@ reset). Entities, world frame, metres:
 
 - ``world/boxes/perceived``: each object's box as the executor perceived it (noise included), labelled,
   logged at every observation; ``world/boxes/perceived_centres``: the perceived centres the executor aims
-  at; ``world/boxes/true``: the noise-free boxes (PyBullet's), every :data:`TRUE_EVERY` control steps;
+  at; ``world/boxes/true``: the noise-free boxes (PyBullet's) of what can move (free objects, containers
+  with a joint, grippers) every :data:`TRUE_EVERY` control steps, ``world/boxes/true_fixed`` the others;
 - ``world/arms/<arm>/ee`` and ``.../path``: each arm's end effector and the path it took;
   ``world/arms/<arm>/gripper``: the gripper command (0 open, 1 closed) and ``.../opening``: the Franka's
   finger opening (m), as series;
@@ -19,14 +20,16 @@ reset). Entities, world frame, metres:
   :data:`UNALLOWED` red, :data:`ALLOWED` green, contacts of nothing that moves (or DMP only, no condition)
   grey; labelled with the pair;
 - ``world/camera``: the render camera's pose and intrinsics; ``world/camera/rgb`` and
-  ``world/camera/depth`` (m) every :data:`CAMERA_EVERY` simulated seconds;
+  ``world/camera/depth`` (m) at the start, at a failure and at the end (:data:`CAMERA_EVENTS`; every
+  :data:`CAMERA_EVERY` simulated seconds too if set);
 - ``events/<kind>``: every event of the trace as a log line at its time (kinds of
   :class:`~taskcond.execution.events.Event`; ``failure`` as an error), ``events/plan`` the planner's
   repair, ``events/outcome`` and ``events/goal_check`` at the end;
 - ``state/perceived`` and ``state/true``: the relations and states that start (``+``) or stop (``-``)
-  holding, as perceived at each observation and by the ground truth every :data:`TRUTH_EVERY` simulated
-  seconds; ``status``: what the robot is doing (:class:`~taskcond.viz.captions.Narrator`);
-  ``episode``, ``goal`` and ``outcome``: documents.
+  holding: every one as perceived at each observation; by the ground truth, those of the goal, of the
+  conditions used so far and each gripper's grasp, every :data:`TRUE_EVERY` control steps, at each
+  top-level step, a failure and the end; ``status``: what the robot is doing
+  (:class:`~taskcond.viz.captions.Narrator`); ``episode``, ``goal`` and ``outcome``: documents.
 
 :func:`read_recording` reads a recording back with Rerun's own reader (:class:`rerun.chunk.RrdReader`).
 """
@@ -44,7 +47,6 @@ import numpy as np
 from taskcond.envs.kitchen import RENDER_EYE, RENDER_TARGET
 from taskcond.execution.collisions import CollisionMonitor
 from taskcond.execution.events import Event
-from taskcond.execution.kitchen import final_predicates
 from taskcond.execution.world import Observation, Touch
 from taskcond.sim.camera import CameraSpec, render
 from taskcond.viz import require_rerun
@@ -56,21 +58,21 @@ if TYPE_CHECKING:
     from taskcond.execution.runner import EpisodeResult
 
 APPLICATION_ID = "taskcond"
-CAMERA_EVERY = 2.0
-"""Simulated seconds between two periodic camera images (RGB and depth). The CPU renderer costs 50–100 ms an
-image whatever its size (BENCHMARKS.md), about 10 control steps of an episode: denser images would break
-the recording's budget of 15% of an episode's wall time."""
-CAMERA_EVENTS = frozenset({"step", "raise", "collision", "post_missing", "failure"})
-"""Event kinds that also take a camera image, unless one was taken less than :data:`CAMERA_GAP` before."""
+CAMERA_EVERY: float | None = None
+"""Simulated seconds between two periodic camera images (RGB and depth); None: only at
+:data:`CAMERA_EVENTS` and at the end. The CPU renderer costs 50–100 ms an image whatever its size
+(BENCHMARKS.md), about 10 control steps of an episode: periodic images would break the recording's budget
+of 15% of an episode's wall time."""
+CAMERA_EVENTS = frozenset({"failure"})
+"""Event kinds that take a camera image (besides the start and the end), unless one was taken less than
+:data:`CAMERA_GAP` before."""
 CAMERA_GAP = 0.5
 """Least simulated seconds between two camera images."""
 CAMERA_SIZE = (320, 240)
 """Camera image size, (width, height) pixels."""
-TRUE_EVERY = 5
-"""Control steps between two logs of the noise-free boxes."""
-TRUTH_EVERY = 2.0
-"""Simulated seconds between two checks of the ground truth's relations and states (about 30 ms each: every
-relation of every pair of bodies); they are also checked at each top-level step and at a failure."""
+TRUE_EVERY = 15
+"""Control steps between two logs of the noise-free boxes of what can move and two checks of the ground
+truth's relations and states (:meth:`RerunRecording._watched`)."""
 FLUSH_EVERY = 30
 """Control steps whose end-effector poses, gripper commands and contacts are sent in one batch."""
 PATH_STRIDE = 3
@@ -102,7 +104,8 @@ class RerunRecording(EpisodeObserver):
 
     Args:
         path: the ``.rrd`` file, written as the episode runs (its directory is made).
-        camera_every: simulated seconds between camera images; None for none.
+        camera: take camera images (at the start, :data:`CAMERA_EVENTS` and the end).
+        camera_every: simulated seconds between periodic camera images besides; None for none.
         camera_size: camera image size (width, height) pixels.
 
     Raises:
@@ -112,11 +115,13 @@ class RerunRecording(EpisodeObserver):
     def __init__(
         self,
         path: str | Path,
+        camera: bool = True,
         camera_every: float | None = CAMERA_EVERY,
         camera_size: tuple[int, int] = CAMERA_SIZE,
     ) -> None:
         require_rerun()
         self.path = Path(path)
+        self.camera_on = camera
         self.camera_every = camera_every
         self.camera = CameraSpec(
             eye=RENDER_EYE, target=RENDER_TARGET, width=camera_size[0], height=camera_size[1], far=4.0
@@ -132,9 +137,9 @@ class RerunRecording(EpisodeObserver):
         self._perceived: frozenset = frozenset()
         self._true: frozenset[str] = frozenset()
         self._moved: list[tuple[np.ndarray, np.ndarray, str]] = []
-        self._next_camera = 0.0
+        self._next_camera = 0.0 if camera_every is not None else math.inf
         self._last_camera = -math.inf
-        self._next_truth = 0.0
+        self._goal: frozenset = frozenset()
         self._finished = False
 
     # ------------------------------------------------------------------------------------ observer
@@ -158,8 +163,9 @@ class RerunRecording(EpisodeObserver):
         )
         self._log_camera_pose()
         self._at(env.steps, world.time)
-        self._log_true_boxes()
-        self._check_truth(world.time)
+        self._log_true_boxes(fixed=True)
+        self._check_truth()
+        self._log_camera(world.time)
 
     def on_plan(self, repair, goal) -> None:  # type: ignore[no-untyped-def]
         import rerun as rr
@@ -178,6 +184,7 @@ class RerunRecording(EpisodeObserver):
             text = "planner: plan checked, no change"
         self.rec.log("events/plan", rr.TextLog(text, level="INFO"))
         self.rec.log("goal", rr.TextDocument("goal: " + (", ".join(map(str, goal)) or "none")), static=True)
+        self._goal = frozenset(goal)
 
     def on_event(self, event: Event) -> None:
         import rerun as rr
@@ -196,7 +203,7 @@ class RerunRecording(EpisodeObserver):
             self._moved_goal(event)
         self._log_status(event.time)
         if event.kind in ("step", "failure"):
-            self._check_truth(event.time)
+            self._check_truth()
         if event.kind in CAMERA_EVENTS and event.time >= self._last_camera + CAMERA_GAP - 1e-9:
             self._log_camera(event.time)
 
@@ -260,14 +267,22 @@ class RerunRecording(EpisodeObserver):
         if step.index % TRUE_EVERY == 0:
             self._at(step.index, step.time)
             self._log_true_boxes()
+            self._check_truth()
         if step.time >= self._next_camera - 1e-9:
             self._at(step.index, step.time)
             self._log_camera(step.time)
-        if step.time >= self._next_truth - 1e-9:
-            self._at(step.index, step.time)
-            self._check_truth(step.time)
         if len(batch.steps) >= FLUSH_EVERY:
             self._flush()
+
+    def ended(self) -> None:
+        if self.rec is None or self._world is None:
+            return
+        self._flush()
+        self._at(self._world.env.steps, self._world.time)
+        self._log_true_boxes()
+        self._check_truth()
+        if self._last_camera < self._world.time:
+            self._log_camera(self._world.time)
 
     def finish(self, result: EpisodeResult) -> None:
         import rerun as rr
@@ -359,17 +374,23 @@ class RerunRecording(EpisodeObserver):
             self.rec.log(f"world/arms/{_part(arm)}/path", rr.LineStrips3D([np.array(points)]))
         self._batch = _Batch()
 
-    def _log_true_boxes(self) -> None:
+    def _log_true_boxes(self, fixed: bool = False) -> None:
+        """The noise-free boxes of what can move (``fixed``: of what cannot, once, and then the others)."""
         import rerun as rr
 
+        if fixed:
+            self._log_true_boxes()
         perception = self._world.perception  # type: ignore[union-attr]
-        boxes = {n: perception.ground_truth_box(n) for n in perception._objects}
-        boxes |= {g.name: perception.gripper_box(g) for g in perception.scene.grippers}
+        scene = self._env.scene  # type: ignore[union-attr]
+        moving = {*scene.free_objects, *scene.joints, *(("cloth",) if scene.cloth is not None else ())}
+        boxes = {n: perception.ground_truth_box(n) for n in perception._objects if (n in moving) != fixed}
+        if not fixed:
+            boxes |= {g.name: perception.gripper_box(g) for g in perception.scene.grippers}
         names = sorted(boxes)
-        lower = np.array([boxes[n].lower for n in names])
-        upper = np.array([boxes[n].upper for n in names])
+        lower = np.array([boxes[n].lower for n in names]).reshape(-1, 3)
+        upper = np.array([boxes[n].upper for n in names]).reshape(-1, 3)
         self.rec.log(
-            "world/boxes/true",
+            "world/boxes/true_fixed" if fixed else "world/boxes/true",
             rr.Boxes3D(
                 centers=(lower + upper) / 2, half_sizes=(upper - lower) / 2, labels=names, colors=TRUE
             ),
@@ -404,20 +425,41 @@ class RerunRecording(EpisodeObserver):
         """A camera image now (unless there is none), the next periodic one :attr:`camera_every` later."""
         import rerun as rr
 
-        if self.camera_every is None:
-            self._next_camera = math.inf
+        if not self.camera_on:
             return
-        self._last_camera, self._next_camera = time, time + self.camera_every
+        self._last_camera = time
+        self._next_camera = math.inf if self.camera_every is None else time + self.camera_every
         frame = render(self._env.scene.client, self.camera)  # type: ignore[union-attr]
         self.rec.log("world/camera/rgb", rr.Image(frame.rgb).compress(jpeg_quality=85))
         depth = np.minimum(frame.depth, 65.0)
         self.rec.log("world/camera/depth", rr.DepthImage((depth * 1000).astype(np.uint16), meter=1000.0))
 
-    def _check_truth(self, time: float) -> None:
-        self._next_truth = time + TRUTH_EVERY
-        now = frozenset(final_predicates(self._env))  # type: ignore[arg-type]
+    def _check_truth(self) -> None:
+        truth = self._env.truth  # type: ignore[union-attr]
+
+        def holds(pred: Any) -> bool:
+            try:
+                return bool(truth.holds(pred))
+            except (KeyError, ValueError):  # a relation of the gripper itself: the judge has none
+                return False
+
+        now = frozenset(str(p) for p in self._watched() if holds(p))
         self._log_changes("state/true", self._true, now)
         self._true = now
+
+    def _watched(self) -> set:
+        """The predicates whose ground truth is followed: the goal's, those of every condition used so far
+        and each gripper's grasp of each object that can move."""
+        from taskcond.conditions import GripperState
+
+        scene = self._env.scene  # type: ignore[union-attr]
+        movable = [*scene.free_objects, *(("cloth",) if scene.cloth is not None else ())]
+        watched = set(self._goal)
+        for cond in self.narrator.conditions.values():  # type: ignore[union-attr]
+            watched.update(cond.pre_conditions, cond.post_conditions)
+        for arm in self._world.arms:  # type: ignore[union-attr]
+            watched.update(GripperState(o, arm) for o in movable)
+        return watched
 
     def _log_changes(self, entity: str, before: frozenset, now: frozenset) -> None:
         import rerun as rr
