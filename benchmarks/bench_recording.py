@@ -24,15 +24,33 @@ from pathlib import Path
 from taskcond.execution.runner import load_library, make_source, plan_run, run_episode
 
 
-def timed(task: str, method: str, seed: int, library, source, recording: Path | None) -> float:
-    """Wall seconds of one episode (with the recording's file closed)."""
+def timed(
+    task: str,
+    method: str,
+    seed: int,
+    library,
+    source,
+    recording: Path | None,
+    video: Path | None = None,
+    size: tuple[int, int] | None = None,
+) -> float:
+    """Wall seconds of one episode (with the recording's or the video's file closed)."""
     observers = []
     if recording is not None:
         from taskcond.viz.rerun_recording import RerunRecording
 
         observers.append(RerunRecording(recording))
     start = time.perf_counter()
-    run_episode(plan_run(task), method, seed, library, source, observers=observers)  # type: ignore[arg-type]
+    run_episode(
+        plan_run(task),
+        method,  # type: ignore[arg-type]
+        seed,
+        library,
+        source,
+        video=video,
+        video_size=size,
+        observers=observers,
+    )
     return time.perf_counter() - start
 
 
@@ -55,7 +73,13 @@ def main() -> None:
     ap.add_argument("--tasks", nargs="+", default=["LHT1", "LHT3"], help="suite task ids")
     ap.add_argument("--method", default="env", help="execution method")
     ap.add_argument("--code", help="another checkout's src directory: its time with recording off")
+    ap.add_argument(
+        "--video-sizes", nargs="*", default=[], help="also time captioned videos of these sizes (WxH)"
+    )
     args = ap.parse_args()
+    if args.video_sizes:
+        videos(args)
+        return
     library = load_library()
     source = make_source(args.method, library)  # type: ignore[arg-type]
     import rerun  # noqa: F401  (imported once, as a long evaluation would)
@@ -81,8 +105,30 @@ def main() -> None:
                 f"{statistics.median(ratios):.3f} | {statistics.median(sizes):.1f} |"
             )
             if args.code:
-                row += f" {statistics.median(other):.2f} | {statistics.median(off) / statistics.median(other):.3f} |"
+                theirs = statistics.median(other)
+                row += f" {theirs:.2f} | {statistics.median(off) / theirs:.3f} |"
             print(row, flush=True)
+
+
+def videos(args: argparse.Namespace) -> None:
+    """Median wall time of episodes with a captioned video of each size, and its ratio to none."""
+    library = load_library()
+    source = make_source(args.method, library)  # type: ignore[arg-type]
+    sizes = [tuple(int(v) for v in s.split("x")) for s in args.video_sizes]
+    print("| task | episodes | no video s | " + " | ".join(f"{w}x{h} s (ratio)" for w, h in sizes) + " |")
+    print("|---|---|---|" + "---|" * len(sizes))
+    with tempfile.TemporaryDirectory() as tmp:
+        for task in args.tasks:
+            timed(task, args.method, 999, library, source, None)
+            off, on = [], {size: [] for size in sizes}
+            for k in range(args.episodes):
+                off.append(timed(task, args.method, 1000 + k, library, source, None))
+                for size in sizes:
+                    path = Path(tmp) / "v.mp4"
+                    on[size].append(timed(task, args.method, 1000 + k, library, source, None, path, size))
+            base = statistics.median(off)
+            cells = [f"{statistics.median(v):.2f} ({statistics.median(v) / base:.2f})" for v in on.values()]
+            print(f"| {task} | {args.episodes} | {base:.2f} | " + " | ".join(cells) + " |", flush=True)
 
 
 if __name__ == "__main__":
