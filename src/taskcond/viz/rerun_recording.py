@@ -17,8 +17,9 @@ reset). Entities, world frame, metres:
   ``world/plan/moved_goals``: every goal Alg. 2 moved (lines 10–13), an arrow from the old goal to the
   new, labelled with the colliding pair;
 - ``world/contacts``: the contacts after each control step as points, coloured by Alg. 2's judgement:
-  :data:`UNALLOWED` red, :data:`ALLOWED` green, contacts of nothing that moves (or DMP only, no condition)
-  grey; labelled with the pair;
+  :data:`UNALLOWED` red, :data:`ALLOWED` green, :data:`SEEN` orange (not allowed, but there at the start or
+  its pair already moved the goal once), contacts of nothing that moves (or DMP only, no condition) grey;
+  labelled with the pair;
 - ``world/camera``: the render camera's pose and intrinsics; ``world/camera/rgb`` and
   ``world/camera/depth`` (m) at the start, at a failure and at the end (:data:`CAMERA_EVENTS`; every
   :data:`CAMERA_EVERY` simulated seconds too if set);
@@ -80,6 +81,9 @@ PATH_STRIDE = 3
 
 UNALLOWED = (230, 40, 40)
 ALLOWED = (40, 200, 60)
+SEEN = (255, 160, 30)
+"""A contact the condition does not allow that Alg. 2 lets pass: there when the primitive started, or its
+pair already moved the goal once in this execution."""
 UNCHECKED = (150, 150, 150)
 PERCEIVED = (70, 140, 255)
 TRUE = (235, 235, 235)
@@ -327,6 +331,8 @@ class RerunRecording(EpisodeObserver):
                 colours.append(UNCHECKED)
             elif monitor.unallowed([touch], self._closed_gripper) is touch:
                 colours.append(UNALLOWED)
+            elif touch.collision in monitor.seen and touch.collision not in monitor.allowed:
+                colours.append(SEEN)
             elif _moves(touch, monitor, self._closed_gripper):
                 colours.append(ALLOWED)
             else:
@@ -606,6 +612,7 @@ def _seconds(value: Any) -> float | None:
 __all__ = [
     "ALLOWED",
     "CAMERA_EVERY",
+    "SEEN",
     "UNALLOWED",
     "UNCHECKED",
     "EvalRecordings",
