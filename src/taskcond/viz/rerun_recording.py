@@ -21,7 +21,7 @@ reset). Entities, world frame, metres:
   its pair already moved the goal once), contacts of nothing that moves (or DMP only, no condition) grey;
   labelled with the pair;
 - ``world/camera``: the render camera's pose and intrinsics; ``world/camera/rgb`` and
-  ``world/camera/depth`` (m) at the start, at a failure and at the end (:data:`CAMERA_EVENTS`; every
+  ``world/camera/depth`` (m) at a failure and at the end (:data:`CAMERA_EVENTS`; every
   :data:`CAMERA_EVERY` simulated seconds too if set);
 - ``events/<kind>``: every event of the trace as a log line at its time (kinds of
   :class:`~taskcond.execution.events.Event`; ``failure`` as an error), ``events/plan`` the planner's
@@ -65,13 +65,13 @@ CAMERA_EVERY: float | None = None
 (BENCHMARKS.md), about 10 control steps of an episode: periodic images would break the recording's budget
 of 15% of an episode's wall time."""
 CAMERA_EVENTS = frozenset({"failure"})
-"""Event kinds that take a camera image (besides the start and the end), unless one was taken less than
+"""Event kinds that take a camera image (besides the end), unless one was taken less than
 :data:`CAMERA_GAP` before."""
 CAMERA_GAP = 0.5
 """Least simulated seconds between two camera images."""
 CAMERA_SIZE = (320, 240)
 """Camera image size, (width, height) pixels."""
-TRUE_EVERY = 15
+TRUE_EVERY = 30
 """Control steps between two logs of the noise-free boxes of what can move and two checks of the ground
 truth's relations and states (:meth:`RerunRecording._watched`)."""
 FLUSH_EVERY = 30
@@ -108,7 +108,7 @@ class RerunRecording(EpisodeObserver):
 
     Args:
         path: the ``.rrd`` file, written as the episode runs (its directory is made).
-        camera: take camera images (at the start, :data:`CAMERA_EVENTS` and the end).
+        camera: take camera images (at :data:`CAMERA_EVENTS` and the end).
         camera_every: simulated seconds between periodic camera images besides; None for none.
         camera_size: camera image size (width, height) pixels.
 
@@ -144,6 +144,7 @@ class RerunRecording(EpisodeObserver):
         self._next_camera = 0.0 if camera_every is not None else math.inf
         self._last_camera = -math.inf
         self._goal: frozenset = frozenset()
+        self._labelled: set[str] = set()
         self._finished = False
 
     # ------------------------------------------------------------------------------------ observer
@@ -169,7 +170,6 @@ class RerunRecording(EpisodeObserver):
         self._at(env.steps, world.time)
         self._log_true_boxes(fixed=True)
         self._check_truth()
-        self._log_camera(world.time)
 
     def on_plan(self, repair, goal) -> None:  # type: ignore[no-untyped-def]
         import rerun as rr
@@ -395,11 +395,12 @@ class RerunRecording(EpisodeObserver):
         names = sorted(boxes)
         lower = np.array([boxes[n].lower for n in names]).reshape(-1, 3)
         upper = np.array([boxes[n].upper for n in names]).reshape(-1, 3)
+        entity = "world/boxes/true_fixed" if fixed else "world/boxes/true"
+        if entity not in self._labelled:  # the same bodies every time: their labels once
+            self._labelled.add(entity)
+            self.rec.log(entity, rr.Boxes3D.from_fields(labels=names, colors=TRUE), static=True)
         self.rec.log(
-            "world/boxes/true_fixed" if fixed else "world/boxes/true",
-            rr.Boxes3D(
-                centers=(lower + upper) / 2, half_sizes=(upper - lower) / 2, labels=names, colors=TRUE
-            ),
+            entity, rr.Boxes3D.from_fields(centers=(lower + upper) / 2, half_sizes=(upper - lower) / 2)
         )
 
     def _log_camera_pose(self) -> None:
