@@ -327,16 +327,14 @@ class RerunRecording(EpisodeObserver):
         """Positions (n, 3), colours and labels of ``touches`` as Alg. 2 judges them (module doc)."""
         monitor, colours = self._monitor, []
         for touch in touches:
-            if monitor is None:
+            if monitor is None or not _moves(touch, monitor, self._closed_gripper):
                 colours.append(UNCHECKED)
             elif monitor.unallowed([touch], self._closed_gripper) is touch:
                 colours.append(UNALLOWED)
             elif touch.collision in monitor.seen and touch.collision not in monitor.allowed:
                 colours.append(SEEN)
-            elif _moves(touch, monitor, self._closed_gripper):
-                colours.append(ALLOWED)
             else:
-                colours.append(UNCHECKED)
+                colours.append(ALLOWED)
         positions = np.array([t.position for t in touches]).reshape(-1, 3)
         return positions, colours, [f"{t.a} / {t.b}" for t in touches]
 
