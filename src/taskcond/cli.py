@@ -954,7 +954,8 @@ def _run_episodes(
         fail(str(exc))
     bar.close()
     _crashed(crashed)
-    kept = [r["rerun"] for r in records if r.get("rerun") and Job.key_of(r) in {j.key for j in todo}]
+    ran = {j.key for j in todo}
+    kept = [r["rerun"] for r in records if r.get("rerun") and Job.key_of(r) in ran]
     if settings.rerun is not None:
         typer.echo(f"{len(kept)} recording(s) in {settings.rerun} (open one with `rerun FILE.rrd`)", err=True)
     config = results.config
