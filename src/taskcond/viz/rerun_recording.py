@@ -32,6 +32,8 @@ reset). Entities, world frame, metres:
   top-level step, a failure and the end; ``status``: what the robot is doing
   (:class:`~taskcond.viz.captions.Narrator`); ``episode``, ``goal`` and ``outcome``: documents.
 
+The file carries a default layout for the viewer (:func:`_layout`): the 3D scene, the trace's log, the
+relations' changes, the status, the camera and the gripper series side by side.
 :func:`read_recording` reads a recording back with Rerun's own reader (:class:`rerun.chunk.RrdReader`).
 """
 
@@ -153,7 +155,7 @@ class RerunRecording(EpisodeObserver):
 
         self.path.parent.mkdir(parents=True, exist_ok=True)
         self.rec = rr.RecordingStream(APPLICATION_ID, recording_id=f"{info.label}-{info.method}-{info.seed}")
-        self.rec.save(self.path)
+        self.rec.save(self.path, default_blueprint=_layout())
         self.rec.set_log_time_enabled(False)
         self._env, self._world, self.narrator = env, world, Narrator(info)
         self.rec.log("world", rr.ViewCoordinates.RIGHT_HAND_Z_UP, static=True)
@@ -543,6 +545,34 @@ def episode_name(task: str, method: str, seed: int) -> str:
     letters, digits, ``.``, ``_`` and ``-`` replaced by ``_``."""
     safe = "".join(c if c.isalnum() or c in "._-" else "_" for c in task)[:80]
     return f"{safe}-{method.replace('+', '_')}-{seed}"
+
+
+def _layout() -> Any:
+    """The viewer's layout: the 3D scene beside the trace's log, above the status, the camera, the gripper
+    series and the relations as they change."""
+    import rerun.blueprint as rrb
+
+    return rrb.Blueprint(
+        rrb.Horizontal(
+            rrb.Vertical(
+                rrb.Spatial3DView(origin="world", name="scene: boxes perceived/true, paths, plan, contacts"),
+                rrb.Horizontal(
+                    rrb.TextDocumentView(origin="status", name="what the robot is doing"),
+                    rrb.Spatial2DView(origin="world/camera", name="camera"),
+                    rrb.TimeSeriesView(origin="world/arms", name="gripper command and opening"),
+                ),
+                row_shares=[3, 1],
+            ),
+            rrb.Vertical(
+                rrb.TextLogView(origin="events", name="trace"),
+                rrb.TextLogView(origin="state", name="relations and states (+ start, - stop)"),
+                row_shares=[2, 1],
+            ),
+            column_shares=[3, 2],
+        ),
+        rrb.TimePanel(timeline="sim_time"),
+        collapse_panels=False,
+    )
 
 
 def _moves(touch: Touch, monitor: CollisionMonitor, closed: bool) -> bool:
