@@ -413,7 +413,7 @@ class Executor:
         :attr:`ExecutionConfig.speed_limit`, holding ``orientation`` (4,) xyzw and the ``gripper`` command,
         until ``stop()`` says so after a step."""
         line = self._line(self.world.ee_pose()[0], goal)
-        self._tell(np.array(line), goal, None, gripper >= 0.5)
+        self._tell(line, goal, None, gripper >= 0.5)
         for point in line:
             self._step(point, orientation, gripper)
             if stop is not None and stop():
@@ -886,7 +886,11 @@ class Executor:
             raise ExecutionError(f"simulation failed: {reason}", "simulation")
 
     def _tell(
-        self, path: np.ndarray | DMPRollout, goal: np.ndarray, monitor: CollisionMonitor | None, closed: bool
+        self,
+        path: np.ndarray | list[np.ndarray] | DMPRollout,
+        goal: np.ndarray,
+        monitor: CollisionMonitor | None,
+        closed: bool,
     ) -> None:
         """Tell the observer, if any, of a movement starting or re-planned: a straight ``path`` (n, 3k) m or
         a DMP ``rollout``'s plan from its current state (:func:`~taskcond.execution.observer.planned_path`),
@@ -895,7 +899,7 @@ class Executor:
             return
         if isinstance(path, DMPRollout):
             path = planned_path(path, self.world.dt)
-        self.observer.moving(path, goal, monitor, closed)
+        self.observer.moving(np.asarray(path), goal, monitor, closed)
 
     def _result(self, completed: bool, failure: str | None, kind: str | None) -> ExecutionResult:
         return ExecutionResult(
