@@ -30,6 +30,7 @@ def main() -> int:
         ["bench_sim.py", "--episodes", "5" if args.quick else "100"],
         ["bench_cloth.py"] + (["--fold-episodes", "3", "--lht4-episodes", "2"] if args.quick else []),
         ["bench_exec.py", "--episodes", "2" if args.quick else "10"],
+        ["bench_recording.py", "--episodes", "2" if args.quick else "5"],
         ["bench_backends.py", "--episodes", "4" if args.quick else "20"],
         ["bench_il.py"],
     ]

@@ -18,6 +18,7 @@ LAYERS: tuple[tuple[str, tuple[str, ...]], ...] = (
     ("environment", ("envs",)),
     ("tasks", ("tasks",)),
     ("world adapter", ("worlds",)),
+    ("viewing", ("viz",)),
     ("application", ("application", "il", "evaluation", "results", "reproduce")),
     ("cli", ("cli",)),
 )

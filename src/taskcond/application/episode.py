@@ -13,7 +13,7 @@ Evaluations of many episodes are :mod:`taskcond.application.evaluate`.
 from __future__ import annotations
 
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
@@ -28,9 +28,9 @@ from taskcond.execution.executor import ConditionSource, ExecutionResult, Execut
 from taskcond.execution.failures import FailureKind
 from taskcond.execution.planner import PlanRepair, goal_of, repair
 from taskcond.execution.skills import SkillLibrary
-from taskcond.sim.recording import VideoRecorder
 from taskcond.tasks.free import STARTS, FreeTask, RandomStart, final_predicates
 from taskcond.tasks.registry import get_task, make
+from taskcond.viz.episode import EpisodeInfo, EpisodeObserver, ObservedWorld, Observers
 from taskcond.worlds.kitchen import KitchenWorld
 
 PLANNERS: tuple[Planner, ...] = tuple(Planner)
@@ -129,10 +129,15 @@ def run_episode(
     on_plan: Callable[[PlanRepair | None, tuple[Predicate, ...]], None] | None = None,
     start_state: str = "task",
     goal: tuple[Predicate, ...] | None = None,
+    video_size: tuple[int, int] | None = None,
+    observers: Sequence[EpisodeObserver] = (),
 ) -> EpisodeResult:
     """Reset the plan's task with ``seed``, repair its steps with the planner (with conditions and
     ``planner="conditions"``), and execute them with ``method``. ``on_plan`` is told the repair and the
-    goal before anything moves. ``start_state="random"`` draws the start from
+    goal before anything moves. ``video``: a captioned video of ``video_size`` (width, height) pixels
+    (:class:`~taskcond.viz.captions.CaptionedVideo`); ``observers`` (a Rerun recording) watch the episode
+    (:mod:`taskcond.viz.episode`); without either nothing is computed for them. ``start_state="random"``
+    draws the start from
     :func:`~taskcond.tasks.free.random_start` (a suite task keeps what its start needs,
     :class:`~taskcond.tasks.free.RandomStart`). ``goal`` (a free instruction only) replaces the goal
     derived from the plan as the success criterion; the derived one is recorded beside it.
@@ -143,10 +148,18 @@ def run_episode(
     _check(plan, planner, start_state, goal)
     start = time.perf_counter()
     env = _environment(plan, start_state, gui)
-    recorder = VideoRecorder(video) if video is not None else None
+    if video is not None:
+        from taskcond.viz.captions import VIDEO_SIZE, CaptionedVideo
+
+        observers = (*observers, CaptionedVideo(video, video_size or VIDEO_SIZE))
+    watch = Observers(observers) if observers else None
     try:
         env.reset(seed=seed)
-        world = KitchenWorld(env, noise_sigma=noise, seed=seed, recorder=recorder)
+        world: KitchenWorld | ObservedWorld = KitchenWorld(env, noise_sigma=noise, seed=seed)
+        if watch is not None:
+            world = ObservedWorld(world, watch)  # type: ignore[arg-type]
+            watch.start(env, world, EpisodeInfo(plan.label, method, seed, plan.steps))
+            on_event, on_plan = watch.chain(on_event, "on_event"), watch.chain(on_plan, "on_plan")
         conditions = _memo(source) if source is not None else None
         fixed, planning = _repaired(plan, world, conditions, planner)
         derived = _goal(plan, env, conditions)
@@ -158,7 +171,9 @@ def run_episode(
         steps = plan.steps if fixed is None else fixed.steps
         result = None
         if fixed is None or fixed.impossible is None:
-            result = Executor(world, library, method, source, config, on_event).run(steps)
+            result = Executor(world, library, method, source, config, on_event, watch).run(steps)
+        if watch is not None:
+            watch.ended()
         missing = [str(q) for q in goal if not env.truth.holds(q)]
         if plan.task_id is None:
             success = result is not None and result.failure is None and not missing
@@ -178,11 +193,17 @@ def run_episode(
             sim_seconds=world.time,
             env_seconds=world.env_seconds,
         )
+    except BaseException:
+        if watch is not None:
+            watch.close()
+        raise
     finally:
-        if recorder is not None:
-            recorder.close()
         env.close()
-    return outcome.episode(plan.label, method, seed, planner, start_state, time.perf_counter() - start)
+    episode = outcome.episode(plan.label, method, seed, planner, start_state, time.perf_counter() - start)
+    if watch is not None:
+        watch.finish(episode)
+        watch.close()
+    return episode
 
 
 def _check(plan: RunPlan, planner: str, start_state: str, goal: tuple[Predicate, ...] | None) -> None:

@@ -134,13 +134,16 @@ def evaluate(
     instructions: Path | None = None,
     il_dir: Path | None = None,
     novel_primitive: bool = False,
+    rerun: Path | None = None,
+    rerun_all: bool = False,
 ) -> list[dict[str, Any]]:
     """Run the jobs that ``results`` (the file of this configuration) does not hold yet with ``planner``
     from ``start`` (a job's task an instruction id of the file ``instructions``, if given; the baseline's
     checkpoint ``il_dir`` for its jobs; each leaving out one primitive's examples with ``novel_primitive``,
-    :func:`novel_primitive_source`), appending each record as its episode ends; returns every result of
-    ``jobs``. Crashed episodes are appended marked ``crashed`` and are not results: the next call runs
-    them again."""
+    :func:`novel_primitive_source`; a Rerun recording of each failed episode, or of every one with
+    ``rerun_all``, in the directory ``rerun``), appending each record as its episode ends; returns every
+    result of ``jobs``. Crashed episodes are appended marked ``crashed`` and are not results: the next call
+    runs them again."""
     wanted = {j.key for j in jobs}
     done = results.done(Job.key_of)
     todo = [j for j in jobs if j.key not in done]
@@ -154,6 +157,8 @@ def evaluate(
         None if il_dir is None else str(il_dir),
         novel_primitive,
         llm_threads(workers, backend),
+        None if rerun is None else str(rerun),
+        rerun_all,
     )
     for rec in run_jobs(todo, args, workers, backend, ray_address):
         results.append(rec)

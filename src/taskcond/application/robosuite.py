@@ -21,7 +21,7 @@ from taskcond.application.condition_sources import make_source
 from taskcond.application.episode import DEFAULT_NOISE, PLANNERS, EpisodeResult
 from taskcond.conditions import Predicate
 from taskcond.execution.executor import ConditionSource, Event, ExecutionConfig, Executor, SourceKind
-from taskcond.execution.planner import Repair, goal_of, repair
+from taskcond.execution.planner import PlanRepair, goal_of, repair
 from taskcond.execution.skills import SkillLibrary
 from taskcond.results import Job, ResultsFile, RunConfig, code_version, directory_digest, llm_fields
 from taskcond.sim.recording import VideoRecorder
@@ -54,7 +54,7 @@ def run_episode(
     on_event: Callable[[Event], None] | None = None,
     config: ExecutionConfig | None = None,
     planner: str = "conditions",
-    on_plan: Callable[[Repair | None, tuple[Predicate, ...]], None] | None = None,
+    on_plan: Callable[[PlanRepair | None, tuple[Predicate, ...]], None] | None = None,
     start_state: str = "task",
     steps: tuple[str, ...] | None = None,
 ) -> EpisodeResult:
@@ -76,7 +76,7 @@ def run_episode(
     steps = task.steps if steps is None else steps
     env = make_env(task.id, video=video is not None)
     recorder = VideoRecorder(video) if video is not None else None
-    fixed: Repair | None = None
+    fixed: PlanRepair | None = None
     result = None
     try:
         scene = reset(env, seed)

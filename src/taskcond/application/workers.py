@@ -5,6 +5,7 @@ episodes it runs (:func:`run_job`).
 from __future__ import annotations
 
 import os
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -16,9 +17,8 @@ from taskcond.application.plans import instruction_plan, llm_decomposer, plan_ru
 from taskcond.execution.executor import ConditionSource, SourceKind
 from taskcond.execution.failures import FailureKind
 from taskcond.execution.skills import SkillLibrary
-from taskcond.results import (
-    Job,
-)
+from taskcond.results import Job
+from taskcond.viz.episode import EpisodeObserver
 
 _WORKER: dict[str, Any] = {}
 
@@ -37,6 +37,9 @@ class WorkerArgs:
         il_dir: the baseline's checkpoint directory (None when it does not run).
         novel_primitive: each episode leaves one primitive out of the LLM's examples.
         llm_threads: CPU threads of the worker's embedded LLM (None: every core; :func:`llm_threads`).
+        rerun: a directory for a Rerun recording of each failed episode (None: none;
+            :class:`~taskcond.viz.rerun_recording.EvalRecordings`).
+        rerun_all: keep the recording of every episode there, not only of the failed ones.
     """
 
     library_dir: str
@@ -48,6 +51,8 @@ class WorkerArgs:
     il_dir: str | None = None
     novel_primitive: bool = False
     llm_threads: int | None = None
+    rerun: str | None = None
+    rerun_all: bool = False
 
 
 def llm_threads(workers: int, backend: str = "local") -> int | None:
@@ -77,15 +82,28 @@ def init_worker(args: WorkerArgs) -> None:
         decomposer=llm_decomposer(args.llm, threads=args.llm_threads),
         il_dir=args.il_dir,
         novel_primitive=args.novel_primitive,
+        recordings=None if args.rerun is None else _recordings(Path(args.rerun), args.rerun_all),
     )
 
 
-def run_initialized(job: Job) -> dict[str, Any]:
+def _recordings(directory: Path, every: bool) -> Any:
+    from taskcond.viz.rerun_recording import EvalRecordings
+
+    return EvalRecordings(directory, every)
+
+
+# long: one episode as a record: baseline, suite task or instruction, recorded or not, crash caught
+def run_initialized(job: Job, observers: Sequence[EpisodeObserver] = ()) -> dict[str, Any]:
     """One episode as a results record: a suite task, or with an instructions file the instruction of
     that id (its plan from the LLM, judged by its goal; a plan the LLM cannot give is a failed episode,
-    ``decomposition``). An exception is returned as a ``crashed`` record (not a result: a resumed
-    evaluation runs it again)."""
+    ``decomposition``), watched by ``observers`` and, with :attr:`WorkerArgs.rerun`, recorded (the
+    record's ``rerun`` names a recording kept). An exception is returned as a ``crashed`` record (not a
+    result: a resumed evaluation runs it again)."""
     from taskcond.decompose import DecompositionError
+
+    recording = None if _WORKER.get("recordings") is None else _WORKER["recordings"].recording(job)
+    if recording is not None:
+        observers = (*observers, recording)
 
     sources: dict[str, ConditionSource | None] = _WORKER["sources"]
     method: SourceKind = job.method  # type: ignore[assignment]
@@ -122,17 +140,20 @@ def run_initialized(job: Job) -> dict[str, Any]:
             planner=_WORKER["planner"],
             start_state=_WORKER["start"],
             goal=goal,
+            observers=observers,
         )
         result.left_out = left_out
-        return result.summary() | extra
+        kept = {} if recording is None else _WORKER["recordings"].keep(recording, bool(result.success))
+        return result.summary() | extra | kept
     except Exception as exc:
+        kept = {} if recording is None else _WORKER["recordings"].keep(recording, False)
         return {
             "task": job.task,
             "method": job.method,
             "seed": job.seed,
             "crashed": True,
             "error": f"{type(exc).__name__}: {' '.join(str(exc).split())[:300]}",
-        }
+        } | kept
 
 
 def unplanned(job: Job, instruction: Any, reason: str, planner: str, start: str) -> dict[str, Any]:
@@ -156,9 +177,10 @@ def unplanned(job: Job, instruction: Any, reason: str, planner: str, start: str)
     }
 
 
-def run_job(job: Job, init_args: WorkerArgs) -> dict[str, Any]:
-    """:func:`run_initialized` in a process that keeps its skill library, condition sources and policy between
-    calls with the same ``init_args`` (:class:`WorkerArgs`): a Ray task's entry point."""
+def run_job(job: Job, init_args: WorkerArgs, observers: Sequence[EpisodeObserver] = ()) -> dict[str, Any]:
+    """:func:`run_initialized` in a process that keeps its skill library, condition sources and policy
+    between calls with the same ``init_args`` (:class:`WorkerArgs`): a Ray task's entry point, and a stored
+    episode's replay (:mod:`taskcond.application.replay`), watched by ``observers``."""
     if _WORKER.get("args") != init_args:
         init_worker(init_args)
-    return run_initialized(job)
+    return run_initialized(job, observers)

@@ -10,7 +10,7 @@ from typing import NoReturn
 
 import typer
 
-from taskcond.cli import conditions, evaluate, reproduce, run, skills
+from taskcond.cli import conditions, evaluate, reproduce, run, skills, viz
 
 app = typer.Typer(
     help="Long-horizon manipulation guided by LLM-generated task conditions (arXiv 2310.02264).",
@@ -32,6 +32,9 @@ app.command()(skills.learn)
 app.command()(skills.record)
 app.command()(run.run)
 app.command()(reproduce.reproduce)
+app.command(help="Run one stored episode of a results file again, to a Rerun recording or a video.")(
+    viz.replay
+)
 eval_app.command("conditions")(conditions.eval_conditions)
 eval_app.command("instructions")(evaluate.eval_instructions)
 eval_app.command("primitives", help="Success rate of every primitive task per execution method (Table III).")(

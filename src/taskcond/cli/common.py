@@ -211,6 +211,8 @@ class ExecutionSettings:
     planner: str = "conditions"
     start: str = "task"
     novel_primitive: bool = False
+    rerun: Path | None = None
+    rerun_all: bool = False
 
 
 def _crashed(crashed: list[dict]) -> None:

@@ -13,6 +13,7 @@ from typing import Annotated
 import typer
 
 import taskcond.cli.robosuite as robosuite
+import taskcond.cli.viz as cli_viz
 from taskcond.cli.common import (
     BackendOption,
     ExecutionSettings,
@@ -61,6 +62,7 @@ def _run_episodes(
         fail(f"--backend {settings.backend!r}: use one of {', '.join(BACKENDS)}")
     if settings.planner not in PLANNERS:
         fail(f"--planner {settings.planner!r}: use one of {', '.join(PLANNERS)}")
+    cli_viz.rerun_ready(settings.rerun, suffix=None)
     library_dir = settings.skills or default_library_dir()
     library = _library(settings.skills) if any(j.method != IMAGE_IL for j in jobs) else None
     il_dir = _il_policy() if any(j.method == IMAGE_IL for j in jobs) else None
@@ -133,11 +135,17 @@ def _run_episodes(
             instructions=instructions,
             il_dir=il_dir,
             novel_primitive=settings.novel_primitive,
+            rerun=settings.rerun,
+            rerun_all=settings.rerun_all,
         )
     except RuntimeError as exc:  # Ray missing or unreachable
         fail(str(exc))
     bar.close()
     _crashed(crashed)
+    ran = {j.key for j in todo}
+    kept = [r["rerun"] for r in records if r.get("rerun") and Job.key_of(r) in ran]
+    if settings.rerun is not None:
+        typer.echo(f"{len(kept)} recording(s) in {settings.rerun} (open one with `rerun FILE.rrd`)", err=True)
     config = results.config
     return records, config.to_dict() | {"digest": config.digest, "crashed": len(crashed)}
 
@@ -242,7 +250,9 @@ def _print_novel(rows: list[dict], records: list[dict]) -> None:
         typer.echo(f"  {r['task']} {r['method']} {r['seed']}, {r.get('left_out')} left out: {reason}")
 
 
+# long: typer declares the eval commands' 17 options in the signature
 def eval_command(kind: str):
+    # long: typer declares its 17 options in the signature
     def command(
         episodes: Annotated[
             int, typer.Option("--episodes", min=1, help="Seeded episodes per task and method.")
@@ -290,6 +300,8 @@ def eval_command(kind: str):
             ),
         ] = False,
         world: WorldOption = "kitchen",
+        rerun: cli_viz.RerunEvalOption = None,
+        rerun_all: cli_viz.RerunAllOption = False,
     ) -> None:
         if robosuite.check_world(world):
             return robosuite.evaluate(
@@ -297,7 +309,17 @@ def eval_command(kind: str):
             )
         _check_start(start)
         settings = ExecutionSettings(
-            workers, noise, llm, skills, backend, ray_address, planner, start, novel_primitive=novel_primitive
+            workers,
+            noise,
+            llm,
+            skills,
+            backend,
+            ray_address,
+            planner,
+            start,
+            novel_primitive=novel_primitive,
+            rerun=rerun,
+            rerun_all=rerun_all,
         )
         _eval_execution(kind, episodes, method, as_json, out, task, seed, settings)
 
@@ -345,6 +367,8 @@ def eval_instructions(
     planner: PlannerOption = "conditions",
     backend: BackendOption = "local",
     ray_address: RayAddressOption = None,
+    rerun: cli_viz.RerunEvalOption = None,
+    rerun_all: cli_viz.RerunAllOption = False,
 ) -> None:
     """Free instructions from random starts (beyond the paper): each decomposed by the LLM (cached) as in
     `taskcond run`, run per method, judged by its shipped goal predicates (ground truth); the record also
@@ -380,7 +404,9 @@ def eval_instructions(
     jobs = jobs_for([i.id for i in chosen], methods, episodes, seed)
     where = "" if start == "task" else f"-{start}"
     out = out or Path("runs") / f"eval-instructions{where}.jsonl"
-    settings = ExecutionSettings(workers, noise, llm, skills, backend, ray_address, planner, start)
+    settings = ExecutionSettings(
+        workers, noise, llm, skills, backend, ray_address, planner, start, rerun=rerun, rerun_all=rerun_all
+    )
     records, config = _run_episodes(jobs, out, settings, "instructions", instructions=path.resolve())
     if config["crashed"]:
         raise typer.Exit(1)

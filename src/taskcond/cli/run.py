@@ -10,6 +10,7 @@ from typing import Annotated
 import typer
 
 import taskcond.cli.robosuite as robosuite
+import taskcond.cli.viz as cli_viz
 from taskcond.cli.common import (
     LlmOption,
     MethodOption,
@@ -48,6 +49,8 @@ def run(
         typer.Option("--video", help="Video (.mp4/.gif); default runs/<task>-<method>-<seed>.mp4."),
     ] = None,
     no_video: Annotated[bool, typer.Option("--no-video", help="Do not record a video.")] = False,
+    size: cli_viz.VideoSizeOption = "640x480",
+    rerun: cli_viz.RerunRunOption = None,
     trace: Annotated[
         Path | None, typer.Option("--trace", help="JSON trace; default runs/<task>-<method>-<seed>.json.")
     ] = None,
@@ -84,6 +87,8 @@ def run(
         fail(f"--start {start!r}: use one of {', '.join(STARTS)}")
     if video is not None and video.suffix.lower() not in (".mp4", ".gif"):
         fail(f"--video {video}: use a .mp4 or .gif file name")
+    video_size = cli_viz.video_size(size)
+    cli_viz.rerun_ready(rerun)
 
     plan = _resolve(spec, llm)
     library = _library(skills)
@@ -110,6 +115,8 @@ def run(
         planner=planner,
         on_plan=_planned,
         start_state=start,
+        video_size=video_size,
+        observers=cli_viz.run_observers(rerun),
     )
     _write_trace(trace_path, plan, config, result)
     if result.failure == FailureKind.IMPOSSIBLE:
@@ -118,7 +125,11 @@ def run(
     typer.echo(
         f"{plan.label}: {outcome}; {result.sim_seconds:.1f} s simulated, {result.wall_seconds:.1f} s wall"
     )
-    typer.echo(f"trace: {trace_path}" + (f"; video: {video_path}" if video_path else ""))
+    typer.echo(
+        f"trace: {trace_path}"
+        + (f"; video: {video_path}" if video_path else "")
+        + (f"; recording: {rerun} (open with `rerun {rerun}`)" if rerun else "")
+    )
     if not result.success:
         raise typer.Exit(1)
 

@@ -242,10 +242,11 @@ class KitchenEnv(gym.Env):
         else:
             self.kinova.open_gripper()
 
-    def render(self) -> np.ndarray:
-        """RGB image (240, 320, 3) uint8 from a fixed camera in front of the table on the robot's right,
-        looking at the work area (:data:`RENDER_EYE`, :data:`RENDER_TARGET`; CPU renderer)."""
-        w, h = RENDER_SIZE
+    def render(self, size: tuple[int, int] = RENDER_SIZE) -> np.ndarray:
+        """RGB image (height, width, 3) uint8 of ``size`` (width, height) pixels from a fixed camera in front
+        of the table on the robot's right, looking at the work area (:data:`RENDER_EYE`,
+        :data:`RENDER_TARGET`; CPU renderer)."""
+        w, h = size
         view = p.computeViewMatrix(RENDER_EYE, RENDER_TARGET, (0, 0, 1))
         proj = p.computeProjectionMatrixFOV(60, w / h, 0.05, 4.0)
         img = p.getCameraImage(

@@ -16,10 +16,12 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial.transform import Rotation, Slerp
 
-from taskcond.dmp import DMPParameters, rollout
+from taskcond.dmp import DMPParameters, DMPRollout, rollout
+from taskcond.execution.collisions import CollisionMonitor
 from taskcond.execution.config import ExecutionConfig, Hand
 from taskcond.execution.events import EventLog
 from taskcond.execution.failures import ExecutionError, FailureKind
+from taskcond.execution.observer import ExecutionObserver, planned_path
 from taskcond.execution.skills import (
     Segment,
     Skill,
@@ -102,6 +104,7 @@ class Approach:
     config: ExecutionConfig
     hand: Hand
     log: EventLog
+    observer: ExecutionObserver | None
 
     def _back_off(self, task: str, depth: int, why: str) -> None:
         """Beyond the paper: open the hand and lift it straight up by :data:`BACK_OFF_HEIGHT`. Before a
@@ -152,10 +155,28 @@ class Approach:
         """Move the hand in a straight line from where it is to ``goal`` (3,) m at
         :attr:`ExecutionConfig.speed_limit`, holding ``orientation`` (4,) xyzw and the ``gripper`` command,
         until ``stop()`` says so after a step."""
-        for point in self._line(self.world.ee_pose()[0], goal):
+        line = self._line(self.world.ee_pose()[0], goal)
+        self._tell(line, goal, None, gripper >= 0.5)
+        for point in line:
             self._step(point, orientation, gripper)
             if stop is not None and stop():
                 break
+
+    def _tell(
+        self,
+        path: np.ndarray | list[np.ndarray] | DMPRollout,
+        goal: np.ndarray,
+        monitor: CollisionMonitor | None,
+        closed: bool,
+    ) -> None:
+        """Tell the observer, if any, of a movement starting or re-planned: a straight ``path`` (n, 3k) m or
+        a DMP ``rollout``'s plan from its current state (:func:`~taskcond.execution.observer.planned_path`),
+        towards ``goal`` (3k,) m."""
+        if self.observer is None:
+            return
+        if isinstance(path, DMPRollout):
+            path = planned_path(path, self.world.dt)
+        self.observer.moving(np.asarray(path), goal, monitor, closed)
 
     def _line(self, start: np.ndarray, goal: np.ndarray) -> list[np.ndarray]:
         """Positions (3,) m, one per control step, from ``start`` (exclusive) to ``goal`` (inclusive) in a
@@ -245,6 +266,7 @@ class Approach:
         here, here_q = self.world.ee_pose()
         path = self._transit_path(here, goal, over)
         turns = self._transit_orientations(here_q, orientation, len(path))
+        self._tell(path, goal, None, gripper >= 0.5)
         for point, quat in zip(path[1:], turns[1:], strict=True):
             self._step(point, quat, gripper)
         for _ in range(TRANSIT_SETTLE):  # the arm lags its commands: the DMP starts where the hand is

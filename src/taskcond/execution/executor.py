@@ -74,6 +74,7 @@ from taskcond.execution.collisions import CollisionMonitor
 from taskcond.execution.config import PANDA_HAND, ExecutionConfig, Hand
 from taskcond.execution.events import Event, EventLog, fmt_items, fmt_vector
 from taskcond.execution.failures import ExecutionError, FailureKind
+from taskcond.execution.observer import ExecutionObserver
 from taskcond.execution.skills import (
     Segment,
     SkillLibrary,
@@ -143,6 +144,7 @@ class Executor(Approach):
         source: the condition source for every method but ``"none"``.
         config: constants of Alg. 1/2.
         on_event: called with every :class:`Event` as it happens.
+        observer: told every movement (:mod:`taskcond.execution.observer`); None computes nothing for it.
         hand: the robot hand's geometry (default the Franka Panda's).
     """
 
@@ -154,6 +156,7 @@ class Executor(Approach):
         source: ConditionSource | None = None,
         config: ExecutionConfig | None = None,
         on_event: Callable[[Event], None] | None = None,
+        observer: ExecutionObserver | None = None,
         hand: Hand = PANDA_HAND,
     ) -> None:
         if method not in METHODS:
@@ -167,6 +170,7 @@ class Executor(Approach):
         self.config = config or ExecutionConfig()
         self.hand = hand
         self.log = EventLog(lambda: self.world.time, on_event)
+        self.observer = observer
         self.conditions: dict[str, TaskCondition] = {}
         self.adjustments = 0
         self.raised = 0
@@ -354,6 +358,7 @@ class Executor(Approach):
                 f"goal {fmt_vector(goal)} of {aim.task!r} is out of reach: {reason}", FailureKind.UNREACHABLE
             )
         rollout = self._gen_dmp(seg, start, goal)
+        self._tell(rollout, goal, monitor, seg.gripper >= 0.5)
         n = max(1, math.ceil(rollout.tau / self.world.dt - 1e-9))
         orientations = seg.orientation(np.arange(n + 1) / n, start_q, aim.turn)
         k = made = 0
@@ -369,6 +374,7 @@ class Executor(Approach):
                 continue
             k -= back
             back_to = self._adjust(rollout, back, touch, aim, monitor, depth)
+            self._tell(rollout, rollout.goal, monitor, seg.gripper >= 0.5)
             made += 1
             for _ in range(max(1, back // 3)):
                 self._step(back_to, orientations[k], seg.gripper)
