@@ -23,7 +23,9 @@ def _project_only(tmp_path_factory: pytest.TempPathFactory):
     * ``TASKCOND_CACHE_DIR`` is a new directory per session: every LLM answer is asked of the model again
       (nothing is served from an earlier run's response cache or saved prefix states), and a skill library
       is learned by the test that needs it (the suite's fixtures learn theirs into temporary directories);
-    * the user's LLM, declared primitives, asset directory, ``OPENAI_*`` and ``RAY_ADDRESS`` are unset.
+    * the user's LLM, declared primitives, asset directory, ``OPENAI_*`` and ``RAY_ADDRESS`` are unset
+      (``TASKCOND_EMBEDDED_RUNTIME`` is kept: it chooses which of the project's llama.cpp runtimes the
+      session tests, :func:`pytest_collection_modifyitems`).
 
     One thing stays shared: the assembled embedded model, ``<the user's cache dir>/models`` (linked into the
     session's cache). It is never stale: it is checked against its pinned SHA-256 when assembled, and a
@@ -40,6 +42,26 @@ def _project_only(tmp_path_factory: pytest.TempPathFactory):
         patch.delenv(name, raising=False)
     yield Path(session_cache)
     patch.undo()
+
+
+RUNTIME_MARKERS = {"native_runtime": "llama-cpp-python", "xllamacpp_runtime": "xllamacpp"}
+"""Markers of tests of one embedded runtime's own decoding, with the runtime each needs."""
+
+
+def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
+    """Deselect (not skip) the tests of an embedded runtime the session does not run: the session runs
+    the default runtime, or ``$TASKCOND_EMBEDDED_RUNTIME`` (the one way to test the other runtime)."""
+    from taskcond.llm.config import embedded_runtime
+
+    runtime = embedded_runtime()
+    other = [
+        i
+        for i in items
+        if any(RUNTIME_MARKERS[m] != runtime for m in RUNTIME_MARKERS if i.get_closest_marker(m))
+    ]
+    if other:
+        config.hook.pytest_deselected(items=other)
+        items[:] = [i for i in items if i not in other]
 
 
 @pytest.fixture(scope="session")

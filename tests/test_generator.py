@@ -477,6 +477,7 @@ def test_lookup_proposes_the_continuation_of_the_longest_earlier_match():
 
 
 @pytest.mark.llm
+@pytest.mark.native_runtime
 def test_embedded_drafts_keep_the_greedy_answer(embedded_backend, monkeypatch):
     """Drafts from the prompt change how many evaluations an answer takes, not the answer: a generation
     prompt (whose answer the repeated own example shows, nearly all of it accepted from drafts) and a
@@ -484,8 +485,7 @@ def test_embedded_drafts_keep_the_greedy_answer(embedded_backend, monkeypatch):
     (A free reasoning line can tip at a near tie between a batch's and a single token's floating-point
     result, so no chain-of-thought answer is compared here.) The native runtime's own decoding; the
     xllamacpp runtime's drafts are tested in test_xllamacpp_backend.py."""
-    if not isinstance(embedded_backend, EmbeddedBackend):
-        pytest.skip("the session's embedded runtime is not llama-cpp-python")
+    assert isinstance(embedded_backend, EmbeddedBackend)  # the marker deselects this test otherwise
     gen = ConditionGenerator(embedded_backend)
     requests = [
         ChatRequest(gen.messages("state", parse_task("move bowl into top drawer")), stop=("\n\n",)),

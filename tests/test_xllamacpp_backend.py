@@ -31,13 +31,14 @@ MESSAGES = [
 
 @pytest.fixture
 def xbackend(embedded_backend):
-    if not isinstance(embedded_backend, XLlamaCppBackend):
-        pytest.skip("the session's embedded runtime is not xllamacpp")
+    assert isinstance(embedded_backend, XLlamaCppBackend)  # the marker deselects these tests otherwise
     return embedded_backend
 
 
+@pytest.mark.native_runtime
 def test_the_prompt_is_llama_cpp_pythons_chatml():
-    llama_chat_format = pytest.importorskip("llama_cpp.llama_chat_format")
+    from llama_cpp import llama_chat_format
+
     for messages in (MESSAGES, MESSAGES[1:], [*MESSAGES, {"role": "assistant", "content": ""}]):
         assert chatml_prompt(messages) == llama_chat_format.format_chatml(messages=messages).prompt
 
@@ -82,6 +83,7 @@ def _listening_tcp_inodes() -> set[str]:
 
 
 @pytest.mark.llm
+@pytest.mark.xllamacpp_runtime
 def test_the_listener_is_a_private_unix_socket_that_wants_the_key(xbackend):
     own = set()
     for fd in os.listdir("/proc/self/fd"):
@@ -101,6 +103,7 @@ def test_the_listener_is_a_private_unix_socket_that_wants_the_key(xbackend):
 
 
 @pytest.mark.llm
+@pytest.mark.xllamacpp_runtime
 def test_drafts_keep_the_greedy_answer(xbackend):
     """n-gram drafts change how many evaluations an answer takes, not the answer: a generation prompt,
     whose answer the repeated own example shows, is mostly accepted from drafts, and a server without
@@ -117,6 +120,7 @@ def test_drafts_keep_the_greedy_answer(xbackend):
 
 
 @pytest.mark.llm
+@pytest.mark.xllamacpp_runtime
 def test_a_grammar_constrains_the_answer_and_a_bad_one_is_one_line(xbackend):
     request = ChatRequest(
         (ChatMessage("user", "Is the sky blue?"),), Sampling(max_tokens=4), grammar='root ::= "yes" | "no"'
