@@ -51,6 +51,9 @@ from taskcond.llm.models import DEFAULT_EMBEDDED_MODEL, get_embedded_model, mode
 
 RUNTIME = "xllamacpp"
 """The runtime's name in response-cache keys and results (``embedded:MODEL@xllamacpp-VERSION``)."""
+DIGEST_BYTES = 32
+"""A prefix state on disk is llama.cpp's slot file followed by its SHA-256 (32 bytes): a damaged file is
+evaluated again, never handed to llama.cpp, whose restore aborts the process on some damaged states."""
 DRAFT_MAX = 48
 """Most tokens one n-gram draft proposes (the native backend's :data:`~taskcond.llm.embedded.DRAFT_MAX`)."""
 LIBGOMP_HINT = (
@@ -285,8 +288,12 @@ class XLlamaCppBackend:
             return False
         local = self._saves / name
         try:
-            shutil.copyfile(stored, local)
-            out = self._http("POST", f"/slots/{slot}?action=restore", {"filename": name})
+            data = stored.read_bytes()
+            state, digest = data[:-DIGEST_BYTES], data[-DIGEST_BYTES:]
+            out = {}
+            if hashlib.sha256(state).digest() == digest:  # llama.cpp aborts on some damaged states
+                local.write_bytes(state)
+                out = self._http("POST", f"/slots/{slot}?action=restore", {"filename": name})
         except (OSError, LLMError):
             out = {}
         finally:
@@ -316,9 +323,10 @@ class XLlamaCppBackend:
         try:
             self._http("POST", f"/slots/{slot}?action=save", {"filename": name})
             self.prefix_dir.mkdir(parents=True, exist_ok=True)
+            state = local.read_bytes()
             fd, tmp = tempfile.mkstemp(dir=self.prefix_dir, suffix=".tmp")
-            os.close(fd)
-            shutil.move(local, tmp)
+            with os.fdopen(fd, "wb") as out:
+                out.write(state + hashlib.sha256(state).digest())
             os.replace(tmp, target)
         except (OSError, LLMError):
             if tmp is not None:
