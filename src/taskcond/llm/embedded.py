@@ -90,6 +90,39 @@ def segment_starts(
     return starts
 
 
+def read_state(path: Path) -> bytes | None:
+    """The llama.cpp state kept in ``path`` by :func:`write_state` (its SHA-256, 32 bytes, then the
+    state), or ``None`` when there is none. A file cut short or damaged is deleted and never handed to
+    llama.cpp (whose restore can abort the process on a damaged state): the prefix is evaluated again."""
+    try:
+        blob = path.read_bytes()
+    except OSError:
+        return None
+    digest, data = blob[:32], blob[32:]
+    if hashlib.sha256(data).digest() != digest:
+        path.unlink(missing_ok=True)
+        return None
+    return data
+
+
+def write_state(path: Path, data: bytes | memoryview) -> bool:
+    """Keep ``data`` (a llama.cpp state) in ``path`` behind its SHA-256, written whole or not at all;
+    ``False`` when the directory cannot be written (full, read-only): the states only save time."""
+    tmp = None
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(dir=path.parent, suffix=".tmp")
+        with os.fdopen(fd, "wb") as fh:
+            fh.write(hashlib.sha256(data).digest())
+            fh.write(data)
+        os.replace(tmp, path)
+    except OSError:
+        if tmp is not None:
+            Path(tmp).unlink(missing_ok=True)
+        return False
+    return True
+
+
 def prune_states(directory: Path, pattern: str, most_bytes: int, keep: Path) -> None:
     """Delete the least recently used files matching ``pattern`` in ``directory`` beyond ``most_bytes``
     bytes (by modification time; ``keep``, just written, stays). Another process may prune at the same
@@ -310,13 +343,8 @@ class EmbeddedBackend:
         import llama_cpp
 
         path = self._state_path(tokens)
-        try:
-            blob = path.read_bytes()
-        except OSError:
-            return False
-        digest, data = blob[:32], blob[32:]
-        if hashlib.sha256(data).digest() != digest:  # cut short or damaged: evaluate the prefix again
-            path.unlink(missing_ok=True)
+        data = read_state(path)
+        if data is None:
             return False
         buf = (ctypes.c_uint8 * len(data)).from_buffer_copy(data)
         if llama_cpp.llama_state_set_data(llm._ctx.ctx, buf, len(data)) != len(data):
@@ -342,18 +370,7 @@ class EmbeddedBackend:
         size = llama_cpp.llama_state_get_size(llm._ctx.ctx)
         buf = (ctypes.c_uint8 * size)()
         n = llama_cpp.llama_state_get_data(llm._ctx.ctx, buf, size)
-        data = memoryview(buf)[:n]
-        tmp = None
-        try:
-            path.parent.mkdir(parents=True, exist_ok=True)
-            fd, tmp = tempfile.mkstemp(dir=path.parent, suffix=".tmp")
-            with os.fdopen(fd, "wb") as fh:
-                fh.write(hashlib.sha256(data).digest())
-                fh.write(data)
-            os.replace(tmp, path)
-        except OSError:
-            if tmp is not None:
-                Path(tmp).unlink(missing_ok=True)
+        if not write_state(path, memoryview(buf)[:n]):
             return
         prune_states(path.parent, "*.state", self.prefix_bytes, keep=path)
 

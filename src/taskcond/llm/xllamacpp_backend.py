@@ -45,15 +45,14 @@ from taskcond.llm.embedded import (
     PREFIX_CACHE_BYTES,
     _common_prefix_length,
     prune_states,
+    read_state,
     segment_starts,
+    write_state,
 )
 from taskcond.llm.models import DEFAULT_EMBEDDED_MODEL, get_embedded_model, model_path
 
 RUNTIME = "xllamacpp"
 """The runtime's name in response-cache keys and results (``embedded:MODEL@xllamacpp-VERSION``)."""
-DIGEST_BYTES = 32
-"""A prefix state on disk is llama.cpp's slot file followed by its SHA-256 (32 bytes): a damaged file is
-evaluated again, never handed to llama.cpp, whose restore aborts the process on some damaged states."""
 DRAFT_MAX = 48
 """Most tokens one n-gram draft proposes (the native backend's :data:`~taskcond.llm.embedded.DRAFT_MAX`)."""
 LIBGOMP_HINT = (
@@ -284,16 +283,13 @@ class XLlamaCppBackend:
         assert self.prefix_dir is not None and self._saves is not None
         name = self._state_name(tokens)
         stored = self.prefix_dir / name
-        if not stored.is_file():
+        state = read_state(stored)
+        if state is None:
             return False
         local = self._saves / name
         try:
-            data = stored.read_bytes()
-            state, digest = data[:-DIGEST_BYTES], data[-DIGEST_BYTES:]
-            out = {}
-            if hashlib.sha256(state).digest() == digest:  # llama.cpp aborts on some damaged states
-                local.write_bytes(state)
-                out = self._http("POST", f"/slots/{slot}?action=restore", {"filename": name})
+            local.write_bytes(state)
+            out = self._http("POST", f"/slots/{slot}?action=restore", {"filename": name})
         except (OSError, LLMError):
             out = {}
         finally:
@@ -319,21 +315,15 @@ class XLlamaCppBackend:
         if target.exists():
             return
         local = self._saves / name
-        tmp = None
         try:
             self._http("POST", f"/slots/{slot}?action=save", {"filename": name})
-            self.prefix_dir.mkdir(parents=True, exist_ok=True)
             state = local.read_bytes()
-            fd, tmp = tempfile.mkstemp(dir=self.prefix_dir, suffix=".tmp")
-            with os.fdopen(fd, "wb") as out:
-                out.write(state + hashlib.sha256(state).digest())
-            os.replace(tmp, target)
         except (OSError, LLMError):
-            if tmp is not None:
-                Path(tmp).unlink(missing_ok=True)
             return
         finally:
             local.unlink(missing_ok=True)
+        if not write_state(target, state):
+            return
         prune_states(self.prefix_dir, "*.state", self.prefix_bytes, keep=target)
 
     def _prepare(self, slot: int, tokens: list[int], starts: list[int], shared_messages: int) -> None:
