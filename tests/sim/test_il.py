@@ -4,7 +4,9 @@ real environment (directly and through ``taskcond eval``). Skipped without the [
 
 from __future__ import annotations
 
+import dataclasses
 import json
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -20,7 +22,7 @@ from taskcond.application.baseline import run_policy_episode
 from taskcond.application.plans import plan_run
 from taskcond.cli import app
 from taskcond.il.config import NetSpec, TrainSpec, policy_dir
-from taskcond.il.dataset import CHUNK, IMAGE_SIZE, STATE_DIM, demonstrate
+from taskcond.il.dataset import CHUNK, IMAGE_SIZE, STATE_DIM, demonstrate, record_episode
 from taskcond.il.train import PolicyError, TrainedPolicy, train
 
 pytestmark = pytest.mark.sim
@@ -72,12 +74,48 @@ def test_the_checkpoint_round_trip_acts_the_same(trained):
         TrainedPolicy.load(directory.parent / "nothing")
 
 
-def test_a_rollout_runs_through_the_environment(trained):
+@dataclass
+class Replay:
+    """A policy that acts a recorded oracle run of :data:`TASK` chunk by chunk (absolute (T, 8) actions),
+    or, with ``hold``, keeps its first pose with the hand closed throughout (it never releases)."""
+
+    actions: np.ndarray
+    hold: bool = False
+    t: int = 0
+    names: tuple[str, ...] = ("release bottle",)
+    arms: dict = dataclasses.field(default_factory=lambda: {"release bottle": 1})
+
+    def nominal_steps(self, name: str) -> int:
+        return len(self.actions)
+
+    def budget(self, name: str) -> int:
+        return CHUNK * int(np.ceil(len(self.actions) / CHUNK))
+
+    def act(self, image: np.ndarray, state: np.ndarray, progress: float, name: str) -> np.ndarray:
+        if self.hold:
+            return np.tile(np.r_[self.actions[0, :7], 1.0], (CHUNK, 1))
+        idx = np.minimum(self.t + np.arange(CHUNK), len(self.actions) - 1)
+        self.t += CHUNK
+        return self.actions[idx]
+
+
+def test_a_rollout_is_judged_by_the_task_own_check(trained):
+    """The oracle's own actions replayed from its seed succeed; the same start with the hand held closed
+    fails on the release's post-condition; a trained policy's rollout is judged the same way."""
+    steps, ok = record_episode(TASK, 1000)
+    assert ok and [s.name for s in steps] == ["release bottle"]
+    actions = np.array(steps[0].actions)
+    done = run_policy_episode(plan_run(TASK), 1000, Replay(actions))
+    assert done.success and done.failure is None and done.goal_missing == []
+    assert done.goal == ["gripper not grasping"] and "gripper not grasping" in done.final_predicates
+    held = run_policy_episode(plan_run(TASK), 1000, Replay(actions, hold=True))
+    assert not held.success and held.goal_missing == ["gripper not grasping"], held.goal_missing
+    assert held.failure is not None and "gripper not grasping" not in held.final_predicates
     _, policy, *_ = trained
     result = run_policy_episode(plan_run(TASK), 1000, policy)
     assert result.method == "image-il" and result.steps == ["release bottle"]
     assert result.sim_seconds == pytest.approx(policy.budget("release bottle") / 30, abs=1e-3)
-    assert result.success is (result.failure is None)
+    assert result.success is (not result.goal_missing and result.failure is None)
     with pytest.raises(PolicyError, match="not trained on 'grasp bottle'"):
         run_policy_episode(plan_run("LHT1"), 1000, policy)
 
