@@ -248,6 +248,10 @@ def test_the_caption_says_the_step_the_condition_and_an_alg1_event() -> None:
     assert "pre 1/1 hold, post 0/1 hold" in text[3]
     assert text[4].startswith("Alg. 1: pre-condition 'box open' unmet")
     assert len(narrator.lines(0.5 + 2.5)) == 4  # the event's line is gone after a while
+    narrator.predicates = frozenset()
+    assert narrator.status() == "pre 0/1 hold, post 0/1 hold (unmet: box closed)"
+    narrator.predicates = frozenset({ContainerState("box", True)})  # opened: its pre-condition is undone
+    assert narrator.status() == "pre 0/1 hold, post 1/1 hold (done)"
 
 
 def test_without_the_extra_a_recording_is_refused_in_one_line(monkeypatch, tmp_path) -> None:

@@ -107,14 +107,18 @@ class Narrator:
         self.predicates = observation.predicates
 
     def status(self) -> str:
-        """The running primitive's condition: how many pre- and post-conditions hold as last perceived."""
+        """The running primitive's condition: how many pre- and post-conditions hold as last perceived, and
+        the pre-conditions that do not; once every post-condition holds the primitive is done, and a
+        pre-condition its own motion undid (a release's ``gripper grasping``) is no longer listed."""
         cond = self.conditions.get(self.task)
         if cond is None:
             return "no condition (DMP only)" if self.info.method == "none" else "condition not generated yet"
         pre = sum(p in self.predicates for p in cond.pre_conditions)
         post = sum(p in self.predicates for p in cond.post_conditions)
-        unmet = [str(p) for p in cond.pre_conditions if p not in self.predicates]
         text = f"pre {pre}/{len(cond.pre_conditions)} hold, post {post}/{len(cond.post_conditions)} hold"
+        if post == len(cond.post_conditions):
+            return text + " (done)"
+        unmet = [str(p) for p in cond.pre_conditions if p not in self.predicates]
         return text + (f" (unmet: {', '.join(unmet)})" if unmet else "")
 
     def lines(self, time: float) -> list[Line]:
