@@ -8,7 +8,9 @@ import json
 import numpy as np
 import pytest
 
+from taskcond.conditions import parse_predicate
 from taskcond.execution.demofile import DemoFileError, RecordedTrajectory, load_trajectory
+from taskcond.execution.planner import named_effects
 from taskcond.generator import ConditionGenerator, example_turns
 from taskcond.primitives import (
     PRIMITIVES,
@@ -16,6 +18,7 @@ from taskcond.primitives import (
     load_primitives,
     parse_task,
     register_primitive,
+    task_for_condition,
     unregister_primitive,
 )
 
@@ -30,6 +33,10 @@ movable = ["A"]
 [[primitive]]
 id = "move_below"
 pattern = "move A below B"
+achieves = "a below b"
+approach = "carry"
+target = "B"
+movable = ["A"]
 """
 
 
@@ -50,10 +57,33 @@ def test_declared_primitives_parse_like_the_built_in_ones(declared) -> None:
     assert task.name == "push toothpaste in front of coffee mug"
     assert (task.primitive.target, task.primitive.movable, task.primitive.declared) == (0, (0,), True)
     below = parse_task("move ball below table")
-    assert below.primitive.id == "move_below" and below.primitive.target is None
+    assert below.primitive.id == "move_below" and below.primitive.target == 1
     # the built-in "move A to position" still parses, and declaring the same thing again is allowed
     assert parse_task("move bottle to position").primitive.id == "move"
-    assert register_primitive("move_below", "move A below B") is PRIMITIVES["move_below"]
+    assert register_primitive(**_MOVE_BELOW) is PRIMITIVES["move_below"]
+    assert all(p.problems() == [] for p in declared)
+
+
+def test_what_a_declared_primitive_achieves_is_read_by_alg_1_and_the_planner(declared) -> None:
+    """Its effect is first-class: Cond2Task raises it for its condition (before, ``A below B`` was the
+    converse's ``move B on top of A``), and the planner counts it as the task's effect."""
+    below = parse_predicate("ball below table")
+    assert task_for_condition(below) == "move ball below table"
+    assert named_effects("move ball below table") == (below,)
+    assert named_effects("push ball in front of table") == ()
+    unregister_primitive("move_below")
+    assert task_for_condition(below) == "move table on top of ball"
+    register_primitive(**_MOVE_BELOW)
+
+
+_MOVE_BELOW = {
+    "id": "move_below",
+    "pattern": "move A below B",
+    "achieves": "A below B",
+    "approach": "carry",
+    "target": "B",
+    "movable": ["A"],
+}
 
 
 def test_without_a_declaration_the_task_is_refused() -> None:
@@ -71,6 +101,13 @@ def test_without_a_declaration_the_task_is_refused() -> None:
         ({"id": "grasp", "pattern": "seize A"}, "built-in primitive"),
         ({"id": "take", "pattern": "grasp A"}, "already a pattern of 'grasp'"),
         ({"id": "push", "pattern": "push A into B", "aliases": ["shove A"]}, "alias 'shove A'"),
+        ({"id": "push", "pattern": "push A into B", "achieves": "A inside C"}, "must name A, B once each"),
+        ({"id": "push", "pattern": "push A", "achieves": "A inside box"}, "must name A once each"),
+        ({"id": "push", "pattern": "push A", "achieves": "A wobbly"}, "not a condition"),
+        ({"id": "push", "pattern": "push A into B", "achieves": "gripper not grasping"}, "on one object"),
+        ({"id": "push", "pattern": "push A", "approach": "fly"}, "approach 'fly' is not one of"),
+        ({"id": "push", "pattern": "push A", "approach": "carry"}, "carrying approach needs"),
+        ({"id": "push", "pattern": "push A", "idempotent": True}, "is idempotent"),
     ],
 )
 def test_bad_declarations_are_refused_with_a_reason(kwargs, message) -> None:

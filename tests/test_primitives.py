@@ -109,21 +109,42 @@ def test_condition_to_task_mapping_of_alg_1(condition, grasped, task):
 
 def test_every_primitive_is_declared_completely():
     """A primitive is one declaration: what the executor, the planner and the grounding read of it is
-    there and consistent (its pattern names its objects; its target and carried objects are among them; a
-    carrying approach moves its first object; an idempotent primitive is one whose post-conditions are its
-    whole effect, never a move to a place)."""
-    from taskcond.primitives import LETTERS, PRIMITIVES, HandApproach
+    there and consistent (Primitive.problems: its pattern names its objects; its target and carried objects
+    are among them; a carrying approach moves its first object; its effect names its objects; an idempotent
+    primitive's effect is a hand's or a container's state), and the catalogue's is the paper's."""
+    from taskcond.primitives import PRIMITIVES, HandApproach
 
-    for p in PRIMITIVES.values():
-        letters = [w for w in p.pattern.split() if w in LETTERS]
-        assert letters == list(LETTERS[: p.n_objects]), p.id
-        assert p.target is None or p.target == -1 or 0 <= p.target < p.n_objects, p.id
-        assert all(0 <= m < p.n_objects for m in p.movable), p.id
-        assert isinstance(p.approach, HandApproach) and isinstance(p.idempotent, bool), p.id
-        if p.approach is HandApproach.CARRY:
-            assert 0 in p.movable and p.target is not None and not p.idempotent, p.id
-        if p.approach is HandApproach.EMPTY_HAND:
-            assert p.target == 0, p.id
+    assert {p.id: p.problems() for p in PRIMITIVES.values()} == {p: [] for p in PRIMITIVES}
     carried = {p.id for p in PRIMITIVES.values() if p.approach is HandApproach.CARRY}
     assert carried == {"move", "move_on_top", "move_into", "move_in_front"}
     assert {p.id for p in PRIMITIVES.values() if p.idempotent} == {"grasp", "release", "open", "close"}
+    assert [p.id for p in PRIMITIVES.values() if p.grasps] == ["grasp"]
+    assert [p.id for p in PRIMITIVES.values() if p.lets_go] == ["release"]
+    assert [p.id for p in PRIMITIVES.values() if p.sets_container] == ["open", "close"]
+    assert [p.id for p in PRIMITIVES.values() if p.achieves is None] == ["tilt", "fold", "move"]
+    # an incomplete declaration says what is wrong
+    from dataclasses import replace
+
+    grasp = PRIMITIVES["grasp"]
+    assert replace(grasp, target=None).problems() == [
+        "an empty hand's approach aims at its first object (target A)"
+    ]
+    assert "must name A once each" in replace(grasp, achieves="gripper grasping box").problems()[0]
+    assert "is idempotent" in replace(PRIMITIVES["tilt"], idempotent=True).problems()[0]
+
+
+@pytest.mark.parametrize(
+    "pid", ["grasp", "release", "open", "close", "move_into", "move_on_top", "move_in_front"]
+)
+def test_cond2task_and_the_named_effects_are_one_table(pid):
+    """Cond2Task (achiever) is read from the same declaration as the planner's named effects: the effect of
+    a task is achieved by that very task."""
+    from taskcond.execution.planner import named_effects
+    from taskcond.primitives import achiever
+
+    prim = PRIMITIVES[pid]
+    objects = ("bottle", "box")[: prim.n_objects]
+    task = prim.task_name(*objects)
+    (effect,) = named_effects(task)
+    assert effect == prim.effect(*objects)
+    assert achiever(effect, grasped="bottle") == parse_task(task)

@@ -143,6 +143,25 @@ def is_spatial(pred: Predicate) -> bool:
     return isinstance(pred, SpatialRelation)
 
 
+def about_gripper_place(pred: Predicate) -> bool:
+    """A spatial relation of a gripper itself (``gripper in front of box``): no primitive achieves it on its
+    own (Cond2Task has no entry), the primitive's own motion does; Alg. 1 leaves it to Alg. 2."""
+    return isinstance(pred, SpatialRelation) and (is_gripper(pred.subject) or is_gripper(pred.reference))
+
+
+_CONVERSE: dict[Relation, Relation] = {Relation.ABOVE: Relation.BELOW, Relation.BELOW: Relation.ABOVE}
+"""Relation → the relation that states the same fact with the two objects swapped (``A below B`` is ``B above
+A``); inside and in front of have none in the vocabulary."""
+
+
+def converse(pred: Predicate) -> Predicate | None:
+    """The same fact stated from the other object (``box below bowl`` → ``bowl above box``), or None when the
+    vocabulary has no converse of ``pred`` (a state, inside, in front of)."""
+    if not isinstance(pred, SpatialRelation) or pred.relation not in _CONVERSE:
+        return None
+    return SpatialRelation(pred.reference, _CONVERSE[pred.relation], pred.subject)
+
+
 _EXCLUDED_BY: dict[Relation, tuple[tuple[bool, Relation], ...]] = {
     Relation.INSIDE: ((True, Relation.INSIDE),),
     Relation.ABOVE: ((True, Relation.ABOVE), (False, Relation.BELOW)),

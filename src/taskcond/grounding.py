@@ -62,6 +62,7 @@ from taskcond.conditions import (
     Relation,
     SpatialRelation,
     TaskCondition,
+    about_gripper_place,
     contradictions,
     is_gripper,
     parse_predicate,
@@ -208,11 +209,6 @@ def _rivals(pred: Predicate, moment: frozenset[Predicate]) -> list[Predicate]:
     )
 
 
-def _about_gripper_place(pred: Predicate) -> bool:
-    """A spatial relation of a gripper itself (``gripper inside box``)."""
-    return isinstance(pred, SpatialRelation) and (is_gripper(pred.subject) or is_gripper(pred.reference))
-
-
 def _subject(pred: Predicate) -> str | None:
     """The thing whose state a state predicate gives (None for a relation)."""
     if isinstance(pred, GripperState):
@@ -307,7 +303,7 @@ class _Grounding:
         if not self.decides(pred) or pred in moment:
             return
         rival = _rivals(pred, moment)
-        if _about_gripper_place(pred) and not rival:
+        if about_gripper_place(pred) and not rival:
             return  # not seen is not contradicted: the hand's place is soft (module doc)
         self.lists[where].remove(pred)
         subject = _subject(pred)

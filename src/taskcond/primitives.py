@@ -7,6 +7,7 @@ condition-to-task mapping, the task suite — reads it from :data:`PRIMITIVES`.
 
 from __future__ import annotations
 
+import functools
 import json
 import re
 import tomllib
@@ -20,8 +21,13 @@ from taskcond.conditions import (
     GripperState,
     Predicate,
     Relation,
+    SpatialRelation,
+    about_gripper_place,
+    converse,
     is_gripper,
     normalize_name,
+    parse_predicate,
+    rename_predicate,
 )
 
 LETTERS = "ABCDEFGH"
@@ -66,6 +72,12 @@ class Primitive:
         idempotent: repeating it is harmless, because its post-conditions say all it achieves (a grasp, an
             open box): the executor skips it and the planner drops it when they already hold. A move's
             post-conditions (``mug above table``) may hold before it runs while its goal, a place, does not.
+        achieves: the condition it achieves by its name alone, in the vocabulary with the pattern's letters
+            (``"A inside B"``, ``"gripper grasping A"``, ``"gripper not grasping"``, ``"A open"``); None
+            when the vocabulary cannot state it (a move to a position, tilt, fold). Alg. 1's Cond2Task
+            (:func:`achiever`) and the planner's effects (:meth:`effect`) both read it. An effect names
+            every letter of the pattern, except ``gripper not grasping``, whose primitive names one object:
+            the one the hand lets go.
     """
 
     id: str
@@ -78,10 +90,102 @@ class Primitive:
     declared: bool = False
     approach: HandApproach = HandApproach.IN_PLACE
     idempotent: bool = False
+    achieves: str | None = None
 
     @property
     def verb(self) -> str:
         return self.pattern.split()[0]
+
+    def effect(self, *objects: str) -> Predicate | None:
+        """What it achieves (:attr:`achieves`) on ``objects`` (in pattern order): ``move_into`` on (bottle,
+        box) → ``bottle inside box``; None without an effect."""
+        if self.achieves is None:
+            return None
+        if len(objects) != self.n_objects:
+            raise TaskNameError(f"{self.id} takes {self.n_objects} object(s), got {len(objects)}: {objects}")
+        return rename_predicate(_template(self.achieves), dict(zip(_PLACEHOLDERS, objects, strict=False)))
+
+    def binding(self, pred: Predicate) -> dict[str, str] | None:
+        """The objects (placeholder letter, lower case → name) for which :meth:`effect` is ``pred``, or None
+        when it achieves no such predicate (another kind, relation or state). ``gripper not grasping``
+        binds no letter, and any gripper's state matches the template's ``gripper``."""
+        if self.achieves is None:
+            return None
+        return _bind(_template(self.achieves), pred)
+
+    @property
+    def grasps(self) -> bool:
+        """It takes its object into the hand (its effect is ``gripper grasping A``): the approach turns a
+        round object's grasp to a free side and refuses a fallen object, the hand points down on its way
+        there, and a missed try backs off before the next."""
+        return isinstance(t := self._effect_template, GripperState) and t.obj is not None
+
+    @property
+    def lets_go(self) -> bool:
+        """It opens the hand on its one object (its effect is ``gripper not grasping``): raised by Alg. 1 it
+        sets the object down first, and skipped it still lets go of an object a finger touches."""
+        return isinstance(t := self._effect_template, GripperState) and t.obj is None
+
+    @property
+    def sets_container(self) -> bool:
+        """Its effect is a container's state (open, close)."""
+        return isinstance(self._effect_template, ContainerState)
+
+    @property
+    def places(self) -> Relation | None:
+        """The relation its effect puts its first object in with another (``above`` for a move on top of),
+        or None."""
+        t = self._effect_template
+        return t.relation if isinstance(t, SpatialRelation) else None
+
+    @property
+    def _effect_template(self) -> Predicate | None:
+        return None if self.achieves is None else _template(self.achieves)
+
+    def problems(self) -> list[str]:
+        """What is missing or inconsistent in this declaration, one line each (empty when complete): its
+        pattern names its objects A, B, ... once each in order; its target and moved objects are among
+        them; a carrying approach moves its first object to a target; an empty hand's approach aims at its
+        first object; its effect (:attr:`achieves`) is in the vocabulary and names each of its letters and
+        no other object (``gripper not grasping`` none, for a primitive of one object: the one let go);
+        an idempotent primitive's effect is a hand's or a container's state (a move's post-conditions may
+        hold before its place does)."""
+        out = []
+        letters = [w for w in self.pattern.split() if len(w) == 1 and w in LETTERS]
+        if letters != list(LETTERS[: self.n_objects]):
+            out.append(
+                f"pattern {self.pattern!r} must name its {self.n_objects} object(s) A, B, ... in order"
+            )
+        if not (self.target is None or self.target == -1 or 0 <= self.target < self.n_objects):
+            out.append(f"target {self.target} is not one of its {self.n_objects} object(s)")
+        if not all(0 <= m < self.n_objects for m in self.movable):
+            out.append(f"movable {self.movable} are not all among its {self.n_objects} object(s)")
+        if not isinstance(self.approach, HandApproach) or not isinstance(self.idempotent, bool):
+            out.append(f"approach must be one of {[a.value for a in HandApproach]}, idempotent true or false")
+        if self.approach is HandApproach.CARRY and (0 not in self.movable or self.target is None):
+            out.append("a carrying approach needs its first object movable and a target")
+        if self.approach is HandApproach.EMPTY_HAND and self.target != 0:
+            out.append("an empty hand's approach aims at its first object (target A)")
+        effect = self._effect_problems()
+        if not effect and self.idempotent and (self.achieves is None or self.places is not None):
+            effect.append("only a primitive whose effect is a hand's or a container's state is idempotent")
+        return out + effect
+
+    def _effect_problems(self) -> list[str]:
+        """:meth:`problems` of :attr:`achieves` alone."""
+        if self.achieves is None:
+            return []
+        try:
+            template = _template(self.achieves)
+        except ConditionError as exc:
+            return [f"achieves {self.achieves!r}: {exc}"]
+        if self.lets_go:
+            return [] if self.n_objects == 1 else ["'gripper not grasping' is achieved on one object"]
+        names = sorted(n for n in template.objects if not is_gripper(n))
+        if names != list(_PLACEHOLDERS[: self.n_objects]):
+            letters = ", ".join(LETTERS[: self.n_objects])
+            return [f"achieves {self.achieves!r} must name {letters} once each and no other object"]
+        return []
 
     def task_name(self, *objects: str) -> str:
         """The canonical task name for ``objects`` (in pattern order)."""
@@ -97,6 +201,31 @@ class Primitive:
                 body = re.sub(rf"\b{letter}\b", f"(?P<{letter}>.+?)", body, count=1)
             out.append(re.compile(f"^{body}$"))
         return out
+
+
+_PLACEHOLDERS = tuple(letter.lower() for letter in LETTERS)
+"""The letters as object names of a parsed effect template (the vocabulary's names are lower case)."""
+
+
+@functools.cache
+def _template(achieves: str) -> Predicate:
+    """The predicate of an effect template (:attr:`Primitive.achieves`), its letters lower case."""
+    return parse_predicate(achieves)
+
+
+def _bind(template: Predicate, pred: Predicate) -> dict[str, str] | None:
+    """Placeholder → object for which ``template`` renamed is ``pred`` (any gripper), or None."""
+    if isinstance(template, GripperState) and isinstance(pred, GripperState):
+        if (template.obj is None) != (pred.obj is None):
+            return None
+        return {} if template.obj is None or pred.obj is None else {template.obj: pred.obj}
+    if isinstance(template, ContainerState) and isinstance(pred, ContainerState):
+        return {template.container: pred.container} if template.is_open == pred.is_open else None
+    if isinstance(template, SpatialRelation) and isinstance(pred, SpatialRelation):
+        if template.relation is not pred.relation:
+            return None
+        return {template.subject: pred.subject, template.reference: pred.reference}
+    return None
 
 
 def _fill(pattern: str, objects: tuple[str, ...] | list[str]) -> str:
@@ -117,6 +246,7 @@ PRIMITIVES: dict[str, Primitive] = {
             movable=(0,),
             approach=HandApproach.EMPTY_HAND,
             idempotent=True,
+            achieves="gripper grasping A",
         ),
         Primitive(
             "release",
@@ -126,10 +256,19 @@ PRIMITIVES: dict[str, Primitive] = {
             target=None,
             movable=(0,),
             idempotent=True,
+            achieves="gripper not grasping",
         ),
-        Primitive("open", "Open", "open A", approach=HandApproach.EMPTY_HAND, idempotent=True),
         Primitive(
-            "close", "Close", "close A", ("shut A",), approach=HandApproach.EMPTY_HAND, idempotent=True
+            "open", "Open", "open A", approach=HandApproach.EMPTY_HAND, idempotent=True, achieves="A open"
+        ),
+        Primitive(
+            "close",
+            "Close",
+            "close A",
+            ("shut A",),
+            approach=HandApproach.EMPTY_HAND,
+            idempotent=True,
+            achieves="A closed",
         ),
         Primitive("tilt", "Tilt", "tilt A", ("pour A",), target=None, movable=(0,)),
         Primitive("fold", "Fold", "fold A"),
@@ -165,6 +304,7 @@ PRIMITIVES: dict[str, Primitive] = {
             target=1,
             movable=(0,),
             approach=HandApproach.CARRY,
+            achieves="A above B",
         ),
         Primitive(
             "move_into",
@@ -175,6 +315,7 @@ PRIMITIVES: dict[str, Primitive] = {
             target=1,
             movable=(0,),
             approach=HandApproach.CARRY,
+            achieves="A inside B",
         ),
         Primitive(
             "move_in_front",
@@ -185,6 +326,7 @@ PRIMITIVES: dict[str, Primitive] = {
             target=1,
             movable=(0,),
             approach=HandApproach.CARRY,
+            achieves="A in front of B",
         ),
     )
 }
@@ -295,6 +437,9 @@ def register_primitive(
     title: str | None = None,
     target: str | None = None,
     movable: tuple[str, ...] | list[str] = (),
+    achieves: str | None = None,
+    approach: str = HandApproach.IN_PLACE,
+    idempotent: bool = False,
 ) -> Primitive:
     """Declare a primitive beyond the paper's ten, so that its task names parse everywhere (conditions,
     skills, execution). Its conditions come from the LLM's generalization (no example of it exists),
@@ -311,9 +456,16 @@ def register_primitive(
         target: the letter of the object whose centre the demonstrated approach aims at (Alg. 2 line 3);
             None: the skill replays its demonstrated motion from wherever the hand is.
         movable: letters of the objects the primitive moves (checked against the scene before a run).
+        achieves: the condition it achieves, with its letters (``"A in front of B"``; :attr:`Primitive.
+            achieves`): Alg. 1 raises it for that condition when no built-in primitive achieves it, and
+            the planner counts it as its effect. None: nothing the vocabulary states.
+        approach: how the hand comes to it, a :class:`HandApproach` value (``empty_hand``, ``carry``,
+            ``in_place``).
+        idempotent: repeating it is harmless (:attr:`Primitive.idempotent`).
 
     Raises:
-        TaskNameError: a malformed declaration, or one that clashes with a registered primitive.
+        TaskNameError: a malformed or incomplete declaration (:meth:`Primitive.problems`), or one that
+            clashes with a registered primitive.
     """
     where = f"primitive {id!r}"
     if not _ID_RE.match(id):
@@ -348,7 +500,13 @@ def register_primitive(
         target=None if target is None else index(target),
         movable=tuple(index(m) for m in movable),
         declared=True,
+        approach=_approach(where, approach),
+        idempotent=idempotent,
+        achieves=None if achieves is None else " ".join(_letters_upper(w) for w in achieves.split()),
     )
+    problems = prim.problems()
+    if problems:
+        raise TaskNameError(f"{where}: {problems[0]}")
     old = PRIMITIVES.get(id)
     if old is not None:
         if old == prim:
@@ -367,6 +525,18 @@ def register_primitive(
     global _PATTERNS
     _PATTERNS = _patterns()
     return prim
+
+
+def _letters_upper(word: str) -> str:
+    return word.upper() if len(word) == 1 and word.upper() in LETTERS else word.lower()
+
+
+def _approach(where: str, value: str) -> HandApproach:
+    try:
+        return HandApproach(value)
+    except ValueError:
+        valid = ", ".join(a.value for a in HandApproach)
+        raise TaskNameError(f"{where}: approach {value!r} is not one of {valid}") from None
 
 
 def unregister_primitive(id: str) -> None:
@@ -388,6 +558,9 @@ def load_primitives(path: str | Path) -> list[Primitive]:
         aliases = ["slide A in front of B"]
         target = "A"
         movable = ["A"]
+        achieves = "A in front of B"       # optional: the condition it achieves
+        approach = "carry"                 # optional: empty_hand, carry, in_place (default)
+        idempotent = false                 # optional
 
     Raises:
         TaskNameError: an unreadable file or a bad declaration, with the file's name.
@@ -401,7 +574,7 @@ def load_primitives(path: str | Path) -> list[Primitive]:
     entries = data.get("primitive") if isinstance(data, dict) else None
     if not isinstance(entries, list) or not entries:
         raise TaskNameError(f"{path}: declare primitives as [[primitive]] tables (JSON: a 'primitive' list)")
-    fields = {"id", "pattern", "aliases", "title", "target", "movable"}
+    fields = {"id", "pattern", "aliases", "title", "target", "movable", "achieves", "approach", "idempotent"}
     out = []
     for k, entry in enumerate(entries, start=1):
         if not isinstance(entry, dict) or not {"id", "pattern"} <= set(entry):
@@ -420,31 +593,38 @@ def load_primitives(path: str | Path) -> list[Primitive]:
     return out
 
 
-def task_for_condition(pred: Predicate, grasped: str | None = None) -> str | None:
-    """The primitive task that achieves an unmet condition: Cond2Task of the paper's Alg. 1 (§III-E).
+def achiever(pred: Predicate, grasped: str | None = None) -> ParsedTask | None:
+    """The primitive task that achieves an unmet condition: Cond2Task of the paper's Alg. 1 (§III-E), read
+    from the primitives' declared effects (:attr:`Primitive.achieves`), the first in catalogue order.
 
-    ``gripper grasping X`` → ``grasp X``; ``gripper not grasping`` → ``release Y`` for the currently
-    ``grasped`` object Y; ``X open`` → ``open X``; ``X closed`` → ``close X``; ``A inside B`` → ``move A into
-    B``; ``A above B`` → ``move A on top of B``; ``A below B`` → ``move B on top of A``; ``A in front of B`` →
-    ``move A in front of B``. Returns ``None`` when no primitive achieves the condition on its own (a
-    relation of the gripper itself, or releasing when nothing is grasped).
+    The predicate's objects fill the effect's letters (``bottle inside box`` → ``move bottle into box``); a
+    letter the effect leaves open is the object the hand holds, ``grasped`` (``gripper not grasping`` →
+    ``release Y``); a predicate no effect states is tried as its converse (``A below B`` → ``move B on top
+    of A``). Returns ``None`` when no primitive achieves the condition on its own (a relation of the gripper
+    itself, or releasing when nothing is grasped).
     """
-    if isinstance(pred, GripperState):
-        if pred.obj is not None:
-            return PRIMITIVES["grasp"].task_name(pred.obj)
-        return None if grasped is None else PRIMITIVES["release"].task_name(grasped)
-    if isinstance(pred, ContainerState):
-        return PRIMITIVES["open" if pred.is_open else "close"].task_name(pred.container)
-    if is_gripper(pred.subject) or is_gripper(pred.reference):
+    if about_gripper_place(pred):
         return None
-    if pred.relation is Relation.BELOW:
-        return PRIMITIVES["move_on_top"].task_name(pred.reference, pred.subject)
-    target = {
-        Relation.INSIDE: "move_into",
-        Relation.ABOVE: "move_on_top",
-        Relation.IN_FRONT_OF: "move_in_front",
-    }
-    return PRIMITIVES[target[pred.relation]].task_name(pred.subject, pred.reference)
+    for stated in (pred, converse(pred)):
+        if stated is None:
+            continue
+        for prim in PRIMITIVES.values():
+            binding = prim.binding(stated)
+            if binding is None:
+                continue
+            objects = [binding.get(letter, grasped) for letter in _PLACEHOLDERS[: prim.n_objects]]
+            named = tuple(o for o in objects if o is not None)
+            return ParsedTask(prim, named) if len(named) == prim.n_objects else None
+    return None
+
+
+def task_for_condition(pred: Predicate, grasped: str | None = None) -> str | None:
+    """The name of :func:`achiever`'s task: ``gripper grasping X`` → ``grasp X``; ``gripper not grasping``
+    → ``release Y`` for the currently ``grasped`` object Y; ``X open`` → ``open X``; ``X closed`` → ``close
+    X``; ``A inside B`` → ``move A into B``; ``A above B`` → ``move A on top of B``; ``A below B`` → ``move
+    B on top of A``; ``A in front of B`` → ``move A in front of B``; None when no primitive achieves it."""
+    task = achiever(pred, grasped)
+    return None if task is None else task.name
 
 
 __all__ = [
@@ -455,6 +635,7 @@ __all__ = [
     "ParsedTask",
     "Primitive",
     "TaskNameError",
+    "achiever",
     "get_primitive",
     "load_primitives",
     "parse_task",

@@ -16,6 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial.transform import Rotation, Slerp
 
+from taskcond.conditions import Relation
 from taskcond.dmp import DMPParameters, DMPRollout, rollout
 from taskcond.execution.collisions import CollisionMonitor
 from taskcond.execution.config import ExecutionConfig, Hand
@@ -206,7 +207,7 @@ class Approach:
                 f"{target_name!r} is not perceived; cannot aim {task!r} at it", FailureKind.NOT_PERCEIVED
             )
         parsed = parse_task(task)
-        grasp = parsed.primitive.id == "grasp"
+        grasp = parsed.primitive.grasps
         if grasp and target_name in obs.lying:
             raise ExecutionError(
                 f"{target_name!r} fell over; no grasp skill holds it lying (each is demonstrated upright)",
@@ -235,7 +236,7 @@ class Approach:
         if grasp and target is not None and target_name in obs.round and skill.segments[0].anchor == "target":
             turn = self._turn(skill, target_name, target, obs, far)
         aside = np.zeros(3)
-        if parsed.primitive.id == "move_on_top" and target is not None and target_name is not None:
+        if parsed.primitive.places is Relation.ABOVE and target is not None and target_name is not None:
             aside = self._aside(skill, target_name, target, obs)
         approach = target + aside + turned(skill.start_offset, turn) if far and target is not None else None
         over = None

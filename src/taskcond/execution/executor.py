@@ -64,8 +64,8 @@ from taskcond.conditions import (
     ContainerState,
     GripperState,
     Predicate,
-    SpatialRelation,
     TaskCondition,
+    about_gripper_place,
     is_gripper,
 )
 from taskcond.dmp import DMPRollout
@@ -75,6 +75,7 @@ from taskcond.execution.config import PANDA_HAND, ExecutionConfig, Hand
 from taskcond.execution.events import Event, EventLog, fmt_items, fmt_vector
 from taskcond.execution.failures import ExecutionError, FailureKind
 from taskcond.execution.observer import ExecutionObserver
+from taskcond.execution.planner import applicable
 from taskcond.execution.skills import (
     Segment,
     SkillLibrary,
@@ -222,7 +223,7 @@ class Executor(Approach):
             deadline: world time, s, at which the top-level primitive's budget ends.
         """
         cond = self.condition(task, depth)
-        primitive = parse_task(task).primitive.id
+        primitive = parse_task(task).primitive
         missing: list[Predicate] = []
         for attempt in range(self.config.max_attempts):
             obs = self.world.observe()
@@ -234,10 +235,10 @@ class Executor(Approach):
             if attempt > 0 and (undo := _undoing(cond, obs)):
                 self.log.not_retried(task, depth, undo, missing, attempt)
                 return
-            if attempt > 0 and primitive == "grasp":
+            if attempt > 0 and primitive.grasps:
                 self._back_off(task, depth, "before trying again")
             self.satisfy(_part_way(cond, obs), (*stack, task), depth, deadline)
-            if depth > 0 and primitive == "release":
+            if depth > 0 and primitive.lets_go:
                 self._set_down(task, depth)
             self.control(task, cond, depth, deadline, retry=attempt > 0)
             missing = _missing(cond.post_conditions, self.world.observe())
@@ -253,13 +254,13 @@ class Executor(Approach):
         """Alg. 1 (SatisfyPreCond): compare the pre-conditions of ``cond`` with the environment information
         (lines 2–5), raise the primitive that achieves the first unmet one (line 6, :meth:`_cond2task`) and
         perform it recursively (lines 7–9, :meth:`perform`), until all hold at once; the budget is checked
-        as in lines 11–12. Relations of the gripper itself are left to Alg. 2 (:func:`_about_gripper_place`).
+        as in lines 11–12. Relations of the gripper itself are left to Alg. 2 (:func:`about_gripper_place`).
 
         Raises:
             ExecutionError: a pre-condition that no primitive achieves, a cycle, too deep a recursion, the
                 budget, or a pre-condition still unmet after each of them has been tried twice.
         """
-        pres = tuple(p for p in cond.pre_conditions if not _about_gripper_place(p))
+        pres = tuple(p for p in cond.pre_conditions if not about_gripper_place(p))
         for _ in range(2 * len(pres) + 1):
             obs = self.world.observe()
             missing = _missing(pres, obs)
@@ -323,7 +324,7 @@ class Executor(Approach):
         if aim.approach is not None:
             first = aim.skill.segments[0]
             here_q = self.world.ee_pose()[1]
-            if parse_task(task).primitive.id == "grasp":  # the hand pointing down as it will grasp
+            if parse_task(task).primitive.grasps:  # the hand pointing down as it will grasp
                 orientation = first.orientation(1.0, here_q, aim.turn)
             else:  # as the demonstration started: an open's hand turns to the handle on the way
                 start = Rotation.from_quat(first.orientations[0, :4])
@@ -453,16 +454,13 @@ class Executor(Approach):
 
     # --------------------------------------------------------------------------------------- helpers
     def _applicable(self, cond: TaskCondition, task: str, depth: int) -> TaskCondition:
-        """``cond`` without the container states of objects that have no such state here (``cloth closed``:
-        no primitive can achieve it and no observation can show it), unless they hold now (an open-top mug
-        is ``open``). Generated conditions are expected to contain such slips; each dropped one is
-        reported."""
+        """``cond`` without what cannot apply here (:func:`~taskcond.execution.planner.applicable`: the
+        container states of objects that have no such state, unless they hold now). Generated conditions are
+        expected to contain such slips; each dropped one is reported."""
         obs = self.world.observe()
 
         def keep(pred: Predicate) -> bool:
-            if not isinstance(pred, ContainerState) or obs.holds(pred):
-                return True
-            return self.world.affords("close" if pred.is_open else "open", (pred.container,)) is None
+            return applicable(pred, obs.holds, self.world.affords)
 
         pre = tuple(p for p in cond.pre_conditions if keep(p))
         post = tuple(p for p in cond.post_conditions if keep(p))
@@ -498,11 +496,11 @@ def _done_already(task: str, cond: TaskCondition, obs: Observation) -> bool:
 
 
 def _still_touched(task: str, obs: Observation) -> bool:
-    """``task`` is a release whose object a gripper still touches in ``obs`` (not grasping it by the
-    perceiver's rule, both fingers, but the hand has not let go: the judge's ``not grasping`` is no
-    finger on it)."""
+    """``task`` lets go of its object (:attr:`~taskcond.primitives.Primitive.lets_go`, a release) and a
+    gripper still touches it in ``obs`` (not grasping it by the perceiver's rule, both fingers, but the hand
+    has not let go: the judge's ``not grasping`` is no finger on it)."""
     parsed = parse_task(task)
-    if parsed.primitive.id != "release":
+    if not parsed.primitive.lets_go:
         return False
     held = parsed.objects[0]
     return any(held in (t.a, t.b) and (is_gripper(t.a) or is_gripper(t.b)) for t in obs.touches)
@@ -512,9 +510,7 @@ def _achieved(cond: TaskCondition, missing: Sequence[Predicate]) -> bool:
     """With the post-conditions ``missing`` after an execution, ``cond``'s primitive counts as done (module
     doc, step 3): none of its effects (post-conditions that are not pre-conditions, nor relations of the
     gripper itself) is missing; a primitive without effects needs all its post-conditions."""
-    effects = [
-        q for q in cond.post_conditions if q not in cond.pre_conditions and not _about_gripper_place(q)
-    ]
+    effects = [q for q in cond.post_conditions if q not in cond.pre_conditions and not about_gripper_place(q)]
     return not any(m in effects for m in missing) and bool(effects or not missing)
 
 
@@ -549,12 +545,6 @@ def _part_way(cond: TaskCondition, obs: Observation) -> TaskCondition:
 
     pre = tuple(q for q in cond.pre_conditions if not part_way(q))
     return cond if len(pre) == len(cond.pre_conditions) else dataclasses.replace(cond, pre_conditions=pre)
-
-
-def _about_gripper_place(pred: Predicate) -> bool:
-    """A spatial relation of a gripper itself (``gripper in front of box``): no primitive achieves it on its
-    own (Cond2Task has no entry), the primitive's own motion does; Alg. 1 leaves it to Alg. 2."""
-    return isinstance(pred, SpatialRelation) and (is_gripper(pred.subject) or is_gripper(pred.reference))
 
 
 def _missing(conditions: Sequence[Predicate], obs: Observation) -> list[Predicate]:

@@ -55,10 +55,10 @@ from taskcond.conditions import (
     Relation,
     SpatialRelation,
     TaskCondition,
+    about_gripper_place,
     contradictions,
-    is_gripper,
 )
-from taskcond.primitives import TaskNameError, parse_task, task_for_condition
+from taskcond.primitives import TaskNameError, achiever, parse_task, task_for_condition
 
 Conditions = Callable[[str], TaskCondition]
 """Task name → its task condition (the executor's condition source)."""
@@ -122,29 +122,32 @@ class PlanRepair:
 
 
 # ------------------------------------------------------------------------------------------ the model
-def about_gripper_place(pred: Predicate) -> bool:
-    """A spatial relation of a gripper itself (``gripper in front of box``): no primitive achieves it on
-    its own; the primitive's motion does (Alg. 1 leaves it to Alg. 2)."""
-    return isinstance(pred, SpatialRelation) and (is_gripper(pred.subject) or is_gripper(pred.reference))
-
-
 def named_effects(task: str) -> tuple[Predicate, ...]:
-    """The predicate a primitive task achieves by its name alone, the inverse of Cond2Task: ``grasp X`` →
-    ``gripper grasping X``, ``release X`` → ``gripper not grasping``, ``open X`` → ``X open``, ``close X``
-    → ``X closed``, ``move A into B`` → ``A inside B``, ``move A on top of B`` → ``A above B``, ``move A in
-    front of B`` → ``A in front of B``; nothing for move to a position, tilt and fold."""
+    """The predicate a primitive task achieves by its name alone, its primitive's declared effect
+    (:meth:`~taskcond.primitives.Primitive.effect`, the inverse of Cond2Task): ``grasp X`` → ``gripper
+    grasping X``, ``release X`` → ``gripper not grasping``, ``open X`` → ``X open``, ``close X`` → ``X
+    closed``, ``move A into B`` → ``A inside B``, ``move A on top of B`` → ``A above B``, ``move A in front of
+    B`` → ``A in front of B``; nothing for move to a position, tilt and fold."""
     parsed = parse_task(task)
-    objs = parsed.objects
-    effect: Predicate | None = {
-        "grasp": lambda: GripperState(objs[0]),
-        "release": lambda: GripperState(None),
-        "open": lambda: ContainerState(objs[0], True),
-        "close": lambda: ContainerState(objs[0], False),
-        "move_into": lambda: SpatialRelation(objs[0], Relation.INSIDE, objs[1]),
-        "move_on_top": lambda: SpatialRelation(objs[0], Relation.ABOVE, objs[1]),
-        "move_in_front": lambda: SpatialRelation(objs[0], Relation.IN_FRONT_OF, objs[1]),
-    }.get(parsed.primitive.id, lambda: None)()
+    effect = parsed.primitive.effect(*parsed.objects)
     return () if effect is None else (effect,)
+
+
+def achievable(pred: Predicate, affords: Affords) -> bool:
+    """The scene affords the primitive that achieves ``pred`` (Cond2Task, :func:`taskcond.primitives.
+    achiever`); False when no primitive achieves it."""
+    task = achiever(pred)
+    return task is not None and affords(task.primitive.id, task.objects) is None
+
+
+def applicable(pred: Predicate, holds: Callable[[Predicate], bool], affords: Affords | None) -> bool:
+    """Whether a condition can apply in this scene: not a container state of an object that has no such
+    state here (``cloth closed``: no primitive can achieve it and no observation can show it; the scene
+    refuses the primitive that achieves the opposite state), unless it ``holds`` now (an open-top mug is
+    ``open``). ``affords`` None accepts everything. The executor and the planner both drop what is not."""
+    if not isinstance(pred, ContainerState) or holds(pred) or affords is None:
+        return True
+    return achievable(ContainerState(pred.container, not pred.is_open), affords)
 
 
 def effects(task: str, cond: TaskCondition | None) -> tuple[Predicate, ...]:
@@ -226,18 +229,15 @@ class _Model:
         """Pre-conditions the vocabulary implies whatever the condition says: ``move A on top of B`` on a
         container B that can be closed needs ``B closed`` (on an open box, ``A above B`` cannot hold: A
         goes inside, and the judge's ``above`` excludes ``inside``)."""
-        parsed = parse_task(task)
-        if parsed.primitive.id != "move_on_top" or self.affords is None:
+        placed = [e for e in named_effects(task) if isinstance(e, SpatialRelation)]
+        if not placed or placed[0].relation is not Relation.ABOVE or self.affords is None:
             return ()
-        target = parsed.objects[1]
-        return (ContainerState(target, False),) if self.affords("close", (target,)) is None else ()
+        closed = ContainerState(placed[0].reference, False)
+        return (closed,) if achievable(closed, self.affords) else ()
 
     def _applicable(self, pred: Predicate) -> bool:
-        """As the executor's: a container state of an object that has no such state here is dropped
-        unless it holds at the start (an open-top mug is ``open``)."""
-        if not isinstance(pred, ContainerState) or pred in self.start or self.affords is None:
-            return True
-        return self.affords("close" if pred.is_open else "open", (pred.container,)) is None
+        """:func:`applicable` with the start state for what holds."""
+        return applicable(pred, self.start.__contains__, self.affords)
 
     def flaws(self, plan: Sequence[str]) -> list[_Flaw]:
         """Every pre-condition of every step that does not hold in the state before it."""
@@ -337,7 +337,7 @@ def _undone(plan: list[str], model: _Model) -> list[Change]:
     i = 0
     while i < len(plan):
         parsed = parse_task(plan[i])
-        if parsed.primitive.id not in ("open", "close"):
+        if not parsed.primitive.sets_container:
             i += 1
             continue
         (effect,) = named_effects(plan[i])
@@ -426,6 +426,12 @@ def _best_fix(
     return None
 
 
+def _sets_hand(task: str) -> bool:
+    """``task`` takes an object into the hand or lets it go (a grasp or a release)."""
+    prim = parse_task(task).primitive
+    return prim.grasps or prim.lets_go
+
+
 def _join(preds: Sequence[Predicate]) -> str:
     return ", ".join(f"'{p}'" for p in preds)
 
@@ -448,7 +454,7 @@ def goal_of(steps: Sequence[str], conditions: Conditions | None = None) -> tuple
             goal.pop(slot, None)
             if slot[0] == "gripper":
                 hand[slot] = pred
-            if slot[0] != "gripper" or (last and parse_task(task).primitive.id in ("grasp", "release")):
+            if slot[0] != "gripper" or (last and _sets_hand(task)):
                 goal[slot] = pred
     return tuple(goal.values()) or tuple(hand.values())
 
@@ -459,7 +465,8 @@ __all__ = [
     "Change",
     "Conditions",
     "PlanRepair",
-    "about_gripper_place",
+    "achievable",
+    "applicable",
     "apply",
     "effects",
     "goal_of",
