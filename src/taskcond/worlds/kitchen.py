@@ -13,9 +13,7 @@ from functools import cache
 import numpy as np
 import pybullet as p
 
-from taskcond.conditions import (
-    KINOVA_GRIPPER,
-)
+from taskcond.conditions import KINOVA_GRIPPER, Relation, SpatialRelation
 from taskcond.envs.kitchen import KitchenEnv
 from taskcond.execution.world import Observation, Touch
 from taskcond.primitives import get_primitive
@@ -193,13 +191,15 @@ class KitchenWorld:
         if unknown:
             return f"{', '.join(map(repr, unknown))} not in the scene (objects: {', '.join(self._objects)})"
         free, joints, interiors = self._free, self._joints, self._interiors
-        if primitive in ("open", "close") and objects[0] not in joints:
+        prim = get_primitive(primitive)
+        if prim.sets_container and objects[0] not in joints:
             return f"{objects[0]!r} has no lid, door or drawer (containers: {', '.join(joints)})"
-        fixed = [objects[k] for k in get_primitive(primitive).movable if objects[k] not in free]
+        fixed = [objects[k] for k in prim.movable if objects[k] not in free]
         if fixed:
             return f"{fixed[0]!r} cannot be moved (movable objects: {', '.join(free)})"
-        if primitive == "move_into" and objects[1] not in interiors:
-            return f"{objects[1]!r} is not a container (containers: {', '.join(interiors)})"
+        into = prim.effect(*objects) if prim.places is Relation.INSIDE else None
+        if isinstance(into, SpatialRelation) and into.reference not in interiors:
+            return f"{into.reference!r} is not a container (containers: {', '.join(interiors)})"
         if primitive == "fold" and ("cloth" not in self._objects or len(self._arms) < 2):
             return "folding needs the cloth and two arms, which this scene does not have"
         return None

@@ -17,8 +17,9 @@ import time
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from taskcond.conditions import ContainerState, GripperState, Predicate
+from taskcond.conditions import ContainerState, GripperState, Predicate, Relation, SpatialRelation
 from taskcond.execution.world import Observation, Touch
+from taskcond.primitives import get_primitive
 from taskcond.sim.perception import ObjectBox, _add_noise, spatial_relations
 from taskcond.sim.recording import VideoRecorder
 from taskcond.worlds.robosuite.scene import DOOR_CLOSED, DOOR_OPEN, ROUND, RobosuiteScene
@@ -124,17 +125,18 @@ class RobosuiteWorld:
         if unknown:
             return f"{', '.join(map(repr, unknown))} not in the scene (objects: {', '.join(self.objects)})"
         free = self.scene.free
-        if primitive in ("open", "close"):
+        prim = get_primitive(primitive)
+        if prim.sets_container:
             if objects[0] != "door" or "door" not in self.scene.entities:
                 return f"{objects[0]!r} has no door, lid or drawer to {primitive}"
             return None
         if primitive == "fold":
             return f"{objects[0]!r} cannot be folded"
-        carried = ("grasp", "release", "tilt", "move", "move_on_top", "move_into", "move_in_front")
-        if primitive in carried and objects[0] not in free:
+        if 0 in prim.movable and objects[0] not in free:
             return f"{objects[0]!r} cannot be picked up (free objects: {', '.join(free) or 'none'})"
-        if primitive == "move_into" and objects[1] not in self.scene.containers:
-            return f"{objects[1]!r} is not a container (containers: {', '.join(self.scene.containers)})"
+        into = prim.effect(*objects) if prim.places is Relation.INSIDE else None
+        if isinstance(into, SpatialRelation) and into.reference not in self.scene.containers:
+            return f"{into.reference!r} is not a container (containers: {', '.join(self.scene.containers)})"
         return None
 
     def reach_error(self, position: np.ndarray) -> str | None:
