@@ -142,3 +142,23 @@ def test_backend_spec_and_config_file(tmp_path, monkeypatch):
     cfg_file.write_text('[llm]\napi_key = "sk-x"\n')
     with pytest.raises(LLMError, match=r"unknown \[llm\] keys \['api_key'\]"):
         LLMConfig.load(None, cfg_file)
+
+
+def test_every_backend_is_one_registry_entry_that_labels_results_by_its_own_name(monkeypatch):
+    """One registry (llm.config.BACKENDS) from backend to settings, factory and result label: every backend
+    kind has an entry, the spec's error lists them all, and each result label names its own backend (a
+    third backend is no longer labelled 'openai')."""
+    from taskcond.llm.config import BACKENDS, BackendKind, backend_label
+    from taskcond.results import llm_fields
+
+    monkeypatch.delenv("OPENAI_BASE_URL", raising=False)
+    assert list(BACKENDS) == list(BackendKind)
+    for kind in BackendKind:
+        cfg = LLMConfig.load(kind.value)
+        assert cfg.backend == kind
+        label, digest = backend_label(cfg)
+        assert label.startswith(f"{kind.value}:") and llm_fields(kind.value)["llm"] == label
+        assert (digest is None) == (kind is BackendKind.OPENAI)
+    assert backend_label(LLMConfig.load("openai:m"))[0] == "openai:m"
+    with pytest.raises(LLMError, match=", ".join(f"{k}, {k}:MODEL" for k in BackendKind)):
+        LLMConfig.load("third")

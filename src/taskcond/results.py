@@ -158,20 +158,14 @@ def file_digest(path: Path) -> str:
 
 def llm_fields(spec: str | None, generator: Any = None) -> dict[str, Any]:
     """The LLM fields of a :class:`RunConfig` for the ``--llm`` spec as resolved by
-    :meth:`~taskcond.llm.config.LLMConfig.load` (which raises LLMError on a bad spec): backend and model,
-    the embedded model's pinned hash, and the settings of the condition generator ``generator`` (its
-    defaults when None)."""
+    :meth:`~taskcond.llm.config.LLMConfig.load` (which raises LLMError on a bad spec): backend and model
+    and the model's pinned hash as the backend's registry entry labels them
+    (:func:`~taskcond.llm.config.backend_label`), and the settings of the condition generator
+    ``generator`` (its defaults when None)."""
     from taskcond.generator import ConditionGenerator
-    from taskcond.llm.config import LLMConfig, embedded_runtime, runtime_label
-    from taskcond.llm.models import DEFAULT_EMBEDDED_MODEL, get_embedded_model
+    from taskcond.llm.config import LLMConfig, backend_label
 
-    cfg = LLMConfig.load(spec)
-    if cfg.backend == "embedded":
-        model = get_embedded_model(cfg.model or DEFAULT_EMBEDDED_MODEL)
-        runtime = runtime_label(cfg.runtime or embedded_runtime())
-        name, digest = f"embedded:{model.name}@{runtime}", model.sha256[:16]
-    else:
-        name, digest = f"openai:{cfg.model}" + (f"@{cfg.base_url}" if cfg.base_url else ""), None
+    name, digest = backend_label(LLMConfig.load(spec))
     settings = {
         f.name: f.default if generator is None else getattr(generator, f.name)
         for f in fields(ConditionGenerator)

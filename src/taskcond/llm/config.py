@@ -24,7 +24,9 @@ from __future__ import annotations
 import importlib.util
 import os
 import tomllib
+from collections.abc import Callable
 from dataclasses import dataclass, replace
+from enum import StrEnum
 from importlib import metadata
 from pathlib import Path
 
@@ -32,7 +34,16 @@ from taskcond.llm.base import ChatBackend, LLMError
 from taskcond.llm.cache import CachedBackend
 from taskcond.llm.models import DEFAULT_EMBEDDED_MODEL, cache_dir
 
-BACKENDS = ("embedded", "openai")
+
+class BackendKind(StrEnum):
+    """The LLM backends, the part of a ``--llm`` spec before ``:`` (each an entry of :data:`BACKENDS`)."""
+
+    EMBEDDED = "embedded"
+    """A GGUF model run in-process by llama.cpp (:mod:`taskcond.llm.models`)."""
+    OPENAI = "openai"
+    """An OpenAI-compatible chat-completions server."""
+
+
 DEFAULT_OPENAI_MODEL = "gpt-4o-mini"
 EMBEDDED_RUNTIMES = {"xllamacpp": "xllamacpp", "llama-cpp-python": "llama_cpp"}
 """The embedded backend's llama.cpp runtimes, the default first, each with its import name: xllamacpp (a
@@ -103,10 +114,8 @@ class LLMConfig:
         chosen = spec or os.environ.get("TASKCOND_LLM") or table.get("backend") or "embedded"
         kind, _, model = chosen.partition(":")
         if kind not in BACKENDS:
-            raise LLMError(
-                f"unknown backend {chosen!r}; valid: embedded, embedded:MODEL, openai, openai:MODEL",
-                backend="config",
-            )
+            valid = ", ".join(f"{k}, {k}:MODEL" for k in BACKENDS)
+            raise LLMError(f"unknown backend {chosen!r}; valid: {valid}", backend="config")
         cfg = cls(
             backend=kind,
             model=model or None,
@@ -116,16 +125,7 @@ class LLMConfig:
             grammar_field=table.get("grammar_field"),
             cache=bool(table.get("cache", True)),
         )
-        if kind == "embedded":
-            runtime = os.environ.get("TASKCOND_EMBEDDED_RUNTIME") or table.get("runtime")
-            cfg = replace(cfg, runtime=embedded_runtime(runtime))
-        if kind == "openai":
-            cfg = replace(
-                cfg,
-                base_url=os.environ.get("OPENAI_BASE_URL") or cfg.base_url,
-                model=cfg.model or os.environ.get("TASKCOND_OPENAI_MODEL") or DEFAULT_OPENAI_MODEL,
-            )
-        return cfg
+        return BACKENDS[BackendKind(kind)].resolve(cfg, table)
 
 
 def embedded_backend(
@@ -145,32 +145,94 @@ def embedded_backend(
     return EmbeddedBackend(model, n_threads=n_threads, prefix_dir=prefix_dir)
 
 
-def make_backend(config: LLMConfig) -> ChatBackend:
-    """Build the configured backend, wrapped in the on-disk response cache unless ``config.cache`` is off."""
-    backend: ChatBackend
-    if config.backend == "embedded":
-        runtime = config.runtime or embedded_runtime()
-        prefixes = (config.cache_dir or cache_dir()) / "prefixes" / runtime if config.cache else None
-        model = config.model or DEFAULT_EMBEDDED_MODEL
-        backend = embedded_backend(model, config.threads, prefixes, runtime)
-    else:
-        from taskcond.llm.openai_backend import OpenAIBackend
+def _resolve_embedded(cfg: LLMConfig, table: dict) -> LLMConfig:
+    """The embedded runtime: ``$TASKCOND_EMBEDDED_RUNTIME``, the file's ``runtime``, else installed."""
+    runtime = os.environ.get("TASKCOND_EMBEDDED_RUNTIME") or table.get("runtime")
+    return replace(cfg, runtime=embedded_runtime(runtime))
 
-        key = os.environ.get(config.api_key_env)
-        if not key:
-            if not config.base_url:
-                raise LLMError(
-                    f"no API key: set {config.api_key_env}, or OPENAI_BASE_URL for a local server",
-                    backend="openai",
-                )
-            key = "none"  # local OpenAI-compatible servers accept any key
-        backend = OpenAIBackend(
-            model=config.model or DEFAULT_OPENAI_MODEL,
-            base_url=config.base_url,
-            api_key=key,
-            timeout=config.timeout,
-            grammar_field=config.grammar_field,
-        )
+
+def _build_embedded(config: LLMConfig) -> ChatBackend:
+    runtime = config.runtime or embedded_runtime()
+    prefixes = (config.cache_dir or cache_dir()) / "prefixes" / runtime if config.cache else None
+    model = config.model or DEFAULT_EMBEDDED_MODEL
+    return embedded_backend(model, config.threads, prefixes, runtime)
+
+
+def _label_embedded(config: LLMConfig) -> tuple[str, str | None]:
+    from taskcond.llm.models import get_embedded_model
+
+    model = get_embedded_model(config.model or DEFAULT_EMBEDDED_MODEL)
+    runtime = runtime_label(config.runtime or embedded_runtime())
+    return f"embedded:{model.name}@{runtime}", model.sha256[:16]
+
+
+def _resolve_openai(cfg: LLMConfig, table: dict) -> LLMConfig:
+    """``$OPENAI_BASE_URL`` over the file's ``base_url``; the model of the spec, else
+    ``$TASKCOND_OPENAI_MODEL``, else :data:`DEFAULT_OPENAI_MODEL`."""
+    return replace(
+        cfg,
+        base_url=os.environ.get("OPENAI_BASE_URL") or cfg.base_url,
+        model=cfg.model or os.environ.get("TASKCOND_OPENAI_MODEL") or DEFAULT_OPENAI_MODEL,
+    )
+
+
+def _build_openai(config: LLMConfig) -> ChatBackend:
+    from taskcond.llm.openai_backend import OpenAIBackend
+
+    key = os.environ.get(config.api_key_env)
+    if not key:
+        if not config.base_url:
+            raise LLMError(
+                f"no API key: set {config.api_key_env}, or OPENAI_BASE_URL for a local server",
+                backend="openai",
+            )
+        key = "none"  # local OpenAI-compatible servers accept any key
+    return OpenAIBackend(
+        model=config.model or DEFAULT_OPENAI_MODEL,
+        base_url=config.base_url,
+        api_key=key,
+        timeout=config.timeout,
+        grammar_field=config.grammar_field,
+    )
+
+
+def _label_openai(config: LLMConfig) -> tuple[str, str | None]:
+    return f"openai:{config.model}" + (f"@{config.base_url}" if config.base_url else ""), None
+
+
+@dataclass(frozen=True)
+class Backend:
+    """One LLM backend of :data:`BACKENDS`.
+
+    Attributes:
+        resolve: the backend's own settings from the environment and the config file's ``[llm]`` table,
+            given the generic ones (:meth:`LLMConfig.load`).
+        build: the backend (:func:`make_backend`, before its response cache).
+        label: how results name it (``RunConfig.llm``, e.g. ``embedded:qwen2.5-coder-1.5b@xllamacpp-...``
+            or ``openai:MODEL@BASE_URL``) and the pinned hash of its model file (None for a remote model).
+    """
+
+    resolve: Callable[[LLMConfig, dict], LLMConfig]
+    build: Callable[[LLMConfig], ChatBackend]
+    label: Callable[[LLMConfig], tuple[str, str | None]]
+
+
+BACKENDS: dict[BackendKind, Backend] = {
+    BackendKind.EMBEDDED: Backend(_resolve_embedded, _build_embedded, _label_embedded),
+    BackendKind.OPENAI: Backend(_resolve_openai, _build_openai, _label_openai),
+}
+"""The one registry from an LLM backend to its settings, its factory and its label in results."""
+
+
+def make_backend(config: LLMConfig) -> ChatBackend:
+    """Build the configured backend (:data:`BACKENDS`), wrapped in the on-disk response cache unless
+    ``config.cache`` is off."""
+    backend = BACKENDS[BackendKind(config.backend)].build(config)
     if config.cache:
         return CachedBackend(backend, (config.cache_dir or cache_dir()) / "responses")
     return backend
+
+
+def backend_label(config: LLMConfig) -> tuple[str, str | None]:
+    """How results name the backend of ``config`` and its model's pinned hash (:attr:`Backend.label`)."""
+    return BACKENDS[BackendKind(config.backend)].label(config)
