@@ -12,7 +12,9 @@ from taskcond.conditions import (
     Relation,
     SpatialRelation,
     TaskCondition,
+    about_gripper_place,
     contradictions,
+    converse,
     parse_predicate,
 )
 from taskcond.examples import example_conditions
@@ -163,3 +165,16 @@ def test_no_contradiction_in_any_example_or_in_equivalent_relations():
         assert contradictions(cond.pre_conditions) == contradictions(cond.post_conditions) == []
     same = ("A above B", "B below A", "A inside B", "A above C", "A open", "B open", "gripper grasping A")
     assert contradictions([parse_predicate(c) for c in same]) == []
+
+
+def test_converse_and_relations_of_the_gripper_itself():
+    """``A below B`` is ``B above A`` (Cond2Task reaches a move on top through it); inside, in front of and
+    states have no converse; a spatial relation of a gripper is left to the primitive's motion."""
+    assert converse(parse_predicate("box below bowl")) == parse_predicate("bowl above box")
+    assert converse(parse_predicate("bowl above box")) == parse_predicate("box below bowl")
+    for text in ("bottle inside box", "mug in front of bowl", "box open", "gripper grasping mug"):
+        assert converse(parse_predicate(text)) is None
+    assert about_gripper_place(parse_predicate("gripper in front of box"))
+    assert about_gripper_place(parse_predicate("bottle inside kinova gripper"))
+    assert not about_gripper_place(parse_predicate("gripper grasping box"))
+    assert not about_gripper_place(parse_predicate("bottle inside box"))
