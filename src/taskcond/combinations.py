@@ -1,7 +1,8 @@
 """The combination benchmark (``taskcond eval combinations``, issue 31): every primitive task the kitchen
 makes feasible, generated from the scene's objects and their roles (:func:`taskcond.sim.roles.scene_roles`),
-each said in several wordings from the templates of ``data/combinations.toml`` and judged by the goal predicates
-its template derives (the instruction benchmark's form, :class:`~taskcond.instructions.Instruction`).
+each said in several wordings from the templates of ``data/combinations.toml`` and judged by the goal
+predicates its template derives (the instruction benchmark's form,
+:class:`~taskcond.instructions.Instruction`).
 
 What is generated, for the objects of the scene:
 
@@ -313,11 +314,12 @@ def conflict(steps: tuple[Step, ...], objects: dict[str, SceneObject]) -> str | 
     repeats what an earlier one did), or None. The rules: a grasp or tilt (the hand keeps the object)
     only last, and not of an object another step moves or puts something in or on; each object moved at
     most once and never also a target; one object per container, surface or fixed object; no open or
-    close of a container whose state an earlier step set or needed (a move into it needs it open, a move
-    onto its lid closed); nothing in front of an object whose lid, door or drawer the sequence moves."""
+    close of a container that an earlier open or close set, or whose state an earlier step needed, except
+    closing it over what was put into it (a move into it needs it open, a move onto its lid closed);
+    nothing in front of an object whose lid, door or drawer the sequence moves."""
     moved: set[str] = set()
     targets: set[str] = set()
-    state: dict[str, bool] = {}  # container → open, as set or needed by the steps so far
+    state: dict[str, tuple[bool, bool]] = {}  # container → (open, set by an open or close step)
     for k, step in enumerate(steps):
         if step.primitive in ("grasp", "tilt"):
             if k != len(steps) - 1:
@@ -326,9 +328,11 @@ def conflict(steps: tuple[Step, ...], objects: dict[str, SceneObject]) -> str | 
                 return f"{step.name!r} undoes an earlier step"
             continue
         if step.primitive in ("open", "close"):
-            if step.subject in state:
+            opens = step.primitive == "open"
+            was = state.get(step.subject)
+            if was is not None and (was[1] or was[0] == opens or not was[0]):
                 return f"{step.name!r} repeats or undoes an earlier step"
-            state[step.subject] = step.primitive == "open"
+            state[step.subject] = (opens, True)  # closing over what went in: the one change allowed
             continue
         a, b = step.subject, step.target
         assert b is not None
@@ -338,9 +342,9 @@ def conflict(steps: tuple[Step, ...], objects: dict[str, SceneObject]) -> str | 
         targets.add(b)
         need = {"move_into": True, "move_on_top": False}.get(step.primitive)
         if need is not None and objects[b].closable:
-            if state.get(b, need) != need:
+            if b in state and state[b][0] != need:
                 return f"{step.name!r} needs the {b} {'open' if need else 'closed'}"
-            state[b] = need
+            state[b] = (need, False)
     for step in steps:
         if step.primitive == "move_in_front":
             owner = step.target
