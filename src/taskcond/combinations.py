@@ -459,6 +459,23 @@ def generate(objects: dict[str, SceneObject], templates: Templates | None = None
     return Generated(out, refused, consistent_pairs(singles, objects))
 
 
+def _said(text: str) -> str:
+    """An instruction's words for matching: lower case, no punctuation, single spaces."""
+    return " ".join(re.sub(r"[^\w' ]+", " ", text.lower()).split())
+
+
+def goal_of_words(text: str, generated: Generated) -> tuple[Predicate, ...] | None:
+    """The goal an instruction's own words say, when they are one of the ``generated`` single tasks'
+    wordings ("Stack the bowl on the box." → ``bowl above box``, ``gripper not grasping``), else None: what
+    ``taskcond run`` judges such an instruction by, so that a plan contradicting its words (``move bowl
+    into box``) fails the goal check instead of meeting the goal it derives itself."""
+    said = _said(text)
+    for c in generated.combinations:
+        if len(c.steps) == 1 and any(_said(w) == said for w in c.wordings):
+            return c.goal
+    return None
+
+
 def select(
     combinations: Iterable[Combination],
     primitives: Iterable[str] = (),
@@ -516,6 +533,7 @@ __all__ = [
     "fits_into",
     "fits_on",
     "generate",
+    "goal_of_words",
     "load_templates",
     "select",
     "single_steps",

@@ -12,7 +12,7 @@ from typer.testing import CliRunner
 
 from taskcond.application.demonstrations import learn_library
 from taskcond.cli import app
-from taskcond.combinations import Step, conflict, generate
+from taskcond.combinations import Step, conflict, generate, goal_of_words
 from taskcond.conditions import parse_predicate
 from taskcond.envs.kitchen import KitchenEnv
 from taskcond.sim.roles import scene_roles
@@ -69,6 +69,14 @@ def test_sequences_are_consistent_seeded_and_their_goals_hold_jointly(generated)
     into_then_close = (Step("move_into", ("bottle", "box")), Step("close", ("box",)))
     assert conflict(into_then_close, roles) is None
     assert "holds the mug" in conflict((Step("grasp", ("mug",)), Step("open", ("box",))), roles)
+
+
+def test_the_words_own_goal_is_the_templates(generated) -> None:
+    """`taskcond run` judges "stack the bowl on the box" by its words, whatever the plan says."""
+    stack = next(c for c in generated.combinations if c.id == "move_on_top-bowl-box")
+    assert goal_of_words("stack the bowl on the box", generated) == stack.goal
+    assert goal_of_words("Open the door!", generated) == (parse_predicate("microwave open"),)
+    assert goal_of_words("Stack the bowl on the box and sing.", generated) is None
 
 
 def test_an_on_top_wording_is_not_met_by_an_into_final_state(generated) -> None:
