@@ -108,6 +108,11 @@ def test_an_on_top_wording_is_not_met_by_an_into_final_state(generated) -> None:
         p.resetBasePositionAndOrientation(body, (pos[0], pos[1], 0.05), lying, physicsClientId=scene.client)
         env.settle(0.5)
         assert fallen_objects(env) == ["mug"]  # the one definition of fallen: tilted more than 45 degrees
+        body = scene.bodies["cube"]
+        pos, _ = p.getBasePositionAndOrientation(body, physicsClientId=scene.client)
+        p.resetBasePositionAndOrientation(body, (pos[0], pos[1], 0.03), lying, physicsClientId=scene.client)
+        env.settle(0.5)
+        assert fallen_objects(env) == ["mug"]  # a cube turned onto another face still stands
     finally:
         env.close()
 

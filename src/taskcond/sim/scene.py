@@ -484,13 +484,20 @@ class KitchenScene:
 
     def lying(self) -> tuple[str, ...]:
         """The free objects tilted more than 45° from upright (:data:`LYING`), from their poses: the one
-        definition of an object that fell over (the executor's perception and an episode's ``fallen``)."""
+        definition of an object that fell over (the executor's perception and an episode's ``fallen``). A
+        cube stands on any face: it lies only when none of its axes is within 45° of vertical."""
         out = []
         for name in self.free_objects:
-            up = p.getMatrixFromQuaternion(self.pose(name)[1])[8]  # world z of the object's own z axis
+            axes = p.getMatrixFromQuaternion(self.pose(name)[1])  # row-major: row 2 is world z of each axis
+            up = max(abs(a) for a in axes[6:9]) if self._cube(name) else axes[8]
             if up < LYING:
                 out.append(name)
         return tuple(out)
+
+    def _cube(self, name: str) -> bool:
+        """A block whose three sides are equal (within a millimetre): turned onto another face, it stands."""
+        spec = self.specs[name]
+        return isinstance(spec, BlockSpec) and max(spec.size) - min(spec.size) < 1e-3
 
     def yaw(self, name: str) -> float:
         return float(p.getEulerFromQuaternion(self.pose(name)[1])[2])
