@@ -6,8 +6,9 @@ from __future__ import annotations
 
 import json
 from collections import defaultdict
+from collections.abc import Sequence
 from pathlib import Path
-from typing import Annotated
+from typing import TYPE_CHECKING, Annotated
 
 import typer
 
@@ -28,8 +29,11 @@ from taskcond.cli.common import (
     fail,
 )
 
+if TYPE_CHECKING:
+    from taskcond.combinations import Combination, Generated, Refusal
 
-def _generated(objects: Path | None):
+
+def _generated(objects: Path | None) -> Generated:
     """The scene's combinations (:func:`taskcond.combinations.generate`) from its object roles."""
     from taskcond.combinations import TemplateError, generate
     from taskcond.sim.roles import scene_roles
@@ -45,7 +49,7 @@ def _generated(objects: Path | None):
         fail(str(exc))
 
 
-def _check_choices(primitive: list[str], obj: list[str], generated) -> None:
+def _check_choices(primitive: list[str], obj: list[str], generated: Generated) -> None:
     """One-line errors for a --primitive or --object the generated tasks do not have."""
     prims = sorted({s.primitive for c in generated.combinations for s in c.steps})
     objs = sorted({o for c in generated.combinations for s in c.steps for o in s.objects})
@@ -57,7 +61,10 @@ def _check_choices(primitive: list[str], obj: list[str], generated) -> None:
             fail(f"--object {o!r}: use one of {', '.join(objs)} (spaces as in the scene: 'top drawer')")
 
 
-def _listing(chosen, refused, pairs: int, as_json: bool, show_refused: bool) -> None:
+def _listing(
+    chosen: Sequence[Combination], refused: Sequence[Refusal], pairs: int, as_json: bool, show_refused: bool
+) -> None:
+    """``--list`` (the chosen tasks with their wordings and goals) or ``--refused``, as text or JSON."""
     if as_json:
         out = {
             "combinations": [
@@ -93,7 +100,7 @@ def fell(record: dict) -> bool:
     return bool(record.get("fallen")) or record.get("failure") == "fallen"
 
 
-def table(records: list[dict], combinations) -> dict:
+def table(records: list[dict], combinations: Sequence[Combination]) -> dict:
     """Per cell (primitive [target] by object) and per sequence length: episodes, successes; per wording
     template of the single steps; overall; the ``fallen`` count."""
     by_id = {c.id: c for c in combinations}
@@ -126,7 +133,7 @@ def table(records: list[dict], combinations) -> dict:
     }
 
 
-def _print_table(summary: dict, combinations) -> None:
+def _print_table(summary: dict, combinations: Sequence[Combination]) -> None:
     """Rows primitive (and target), columns object, each cell successes/episodes; then the overall line."""
     rows = list(dict.fromkeys(c.cell[0] for c in combinations))
     objects = list(dict.fromkeys(c.cell[1] for c in combinations if c.cell[1] != "all"))
