@@ -188,6 +188,7 @@ class Combination:
         wordings: how it is said (an episode's seed picks one).
         goal: what holds when it is done.
         note: what the goal cannot say.
+        templates: the clause template each wording was said from (a sequence's joined by `` / ``).
     """
 
     id: str
@@ -195,6 +196,7 @@ class Combination:
     wordings: tuple[str, ...]
     goal: tuple[Predicate, ...]
     note: str = ""
+    templates: tuple[str, ...] = ()
 
     @property
     def cell(self) -> tuple[str, str]:
@@ -418,21 +420,30 @@ def _combination(
     steps: tuple[Step, ...], objects: dict[str, SceneObject], templates: Templates
 ) -> Combination:
     said = [
-        [c for c in (_clause(t, s, objects) for t in templates.primitives[s.primitive].clauses) if c]
+        [(t, c) for t in templates.primitives[s.primitive].clauses if (c := _clause(t, s, objects))]
         for s in steps
     ]
     if len(steps) == 1:
-        wordings = tuple(_sentence(c) for c in said[0])
+        pairs = [(t, _sentence(c)) for t, c in said[0]]
     else:
-        wordings = tuple(
-            dict.fromkeys(
-                _sentence(join.join(clauses[k % len(clauses)] for clauses in said))
-                for k, join in enumerate(templates.joins)
+        pairs = [
+            (
+                " / ".join(clauses[k % len(clauses)][0] for clauses in said),
+                _sentence(join.join(clauses[k % len(clauses)][1] for clauses in said)),
             )
-        )
+            for k, join in enumerate(templates.joins)
+        ]
+    said_by: dict[str, str] = {}  # each wording once, with the first template that says it
+    for template, wording in pairs:
+        said_by.setdefault(wording, template)
     notes = {templates.primitives[s.primitive].note for s in steps} - {""}
     return Combination(
-        "__".join(s.id for s in steps), steps, wordings, _goal(steps, templates), "; ".join(sorted(notes))
+        "__".join(s.id for s in steps),
+        steps,
+        tuple(said_by),
+        _goal(steps, templates),
+        "; ".join(sorted(notes)),
+        tuple(said_by.values()),
     )
 
 

@@ -101,11 +101,11 @@ def fell(record: dict) -> bool:
 
 
 def table(records: list[dict], combinations: Sequence[Combination]) -> dict:
-    """Per cell (primitive [target] by object) and per sequence length: episodes, successes; per wording
+    """Per cell (primitive [target] by object) and per sequence length: episodes, successes; per clause
     template of the single steps; overall; the ``fallen`` count."""
     by_id = {c.id: c for c in combinations}
     cells: dict[tuple[str, str], list[int]] = defaultdict(lambda: [0, 0])
-    wordings: dict[tuple[str, int], list[int]] = defaultdict(lambda: [0, 0])
+    wordings: dict[tuple[str, str], list[int]] = defaultdict(lambda: [0, 0])
     for r in records:
         c = by_id.get(r["task"])
         if c is None:
@@ -115,7 +115,7 @@ def table(records: list[dict], combinations: Sequence[Combination]) -> dict:
             cells[key][0] += ok
             cells[key][1] += 1
         if len(c.steps) == 1 and r.get("instruction") in c.wordings:
-            w = wordings[(c.steps[0].primitive, c.wordings.index(r["instruction"]))]
+            w = wordings[(c.steps[0].primitive, c.templates[c.wordings.index(r["instruction"])])]
             w[0] += ok
             w[1] += 1
     n = len([r for r in records if r["task"] in by_id])
@@ -154,13 +154,9 @@ def _print_table(summary: dict, combinations: Sequence[Combination]) -> None:
         f"fallen: {fallen}/{n} ({100 * fallen / max(n, 1):.1f}%) episodes in which an object fell over"
     )
     if summary["wordings"]:
-        parts = defaultdict(list)
+        typer.echo("by wording (single steps, per clause of the templates):")
         for w in summary["wordings"]:
-            parts[w["primitive"]].append(f"w{w['wording']} {w['successes']}/{w['episodes']}")
-        typer.echo(
-            "by wording (single steps; w0 is the first clause of the template): "
-            + "; ".join(f"{p} {', '.join(v)}" for p, v in parts.items())
-        )
+            typer.echo(f"  {w['primitive']:14s} {w['wording']!r:44s} {w['successes']}/{w['episodes']}")
 
 
 # long: typer declares the command's 22 options in the signature
