@@ -8,7 +8,7 @@ import contextlib
 import json
 import sys
 from pathlib import Path
-from typing import Annotated
+from typing import TYPE_CHECKING, Annotated
 
 import typer
 
@@ -36,6 +36,9 @@ from taskcond.cli.skills import _il_policy
 from taskcond.conditions import ConditionError
 from taskcond.llm.base import LLMError
 from taskcond.primitives import TaskNameError
+
+if TYPE_CHECKING:
+    from taskcond.results import Job
 
 
 # long: the resume/progress/crash loop the three eval commands share; next: application/evaluate.py
@@ -151,7 +154,7 @@ def _run_episodes(
 
 
 def _instruction_steps(
-    path: Path, jobs: list, llm: str | None
+    path: Path, jobs: list[Job], llm: str | None
 ) -> dict[tuple[str, str, int], tuple[str, ...]]:
     """Job key → its primitive tasks, for the ``jobs`` on instructions of ``path``: the LLM's
     decomposition of the wording each job's seed picks, asked once per wording here (cached; the workers
