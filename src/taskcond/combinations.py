@@ -13,7 +13,7 @@ What is generated, for the objects of the scene:
   F (not the table, not a drawer);
 * sequences of two and three of these that are consistent (:func:`conflict`): a seeded sample, drawn
   uniformly among the consistent ones, of the sizes the templates file gives (the kitchen has about 4,600
-  consistent sequences of two and 147,000 of three; all of them would be days of episodes).
+  consistent sequences of two and 150,000 of three; all of them would be days of episodes).
 
 A pairing that cannot work is refused with its reason (:class:`Refusal`: ``move bowl into mug``: the bowl
 is wider than the mug's inside), listed and never run. The goal of a task is its template's goal; a
@@ -372,7 +372,8 @@ def _sample(
 
 
 def consistent_pairs(singles: list[Step], objects: dict[str, SceneObject]) -> int:
-    """How many consistent sequences of two steps there are (those of three: tens of thousands)."""
+    """How many consistent sequences of two steps there are (of three steps the kitchen has 150,659: too
+    many to count at every run)."""
     return sum(conflict((a, b), objects) is None for a in singles for b in singles if a != b)
 
 
