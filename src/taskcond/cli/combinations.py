@@ -173,7 +173,11 @@ def eval_combinations(
     ] = 3,
     objects: Annotated[
         Path | None,
-        typer.Option("--objects", help="A TOML file of declared objects, which enter the generated tasks."),
+        typer.Option(
+            "--objects",
+            help="A TOML file of declared objects to enter the generated tasks (issue 31, item 4; refused "
+            "with one line until declared objects are built).",
+        ),
     ] = None,
     primitive: Annotated[
         list[str] | None,
