@@ -58,3 +58,18 @@ def test_a_malformed_file_is_one_line_naming_what_is_wrong(tmp_path, text, messa
 
 def test_tags_name_every_primitive() -> None:
     assert {p.id for p in PRIMITIVES.values() if not p.declared} <= set(TAGS)
+
+
+def test_wordings_are_said_in_turn_by_the_episodes_seed(tmp_path) -> None:
+    path = tmp_path / "w.toml"
+    path.write_text(GOOD + 'wordings = ["Lift the box\'s lid.", "Open the lid."]\n', encoding="utf-8")
+    (ins,) = load_instructions(path)
+    assert ins.texts == ("Open the box.", "Lift the box's lid.", "Open the lid.")
+    assert [ins.text_for(s) for s in range(1000, 1003)] == [
+        "Lift the box's lid.",
+        "Open the lid.",
+        "Open the box.",
+    ]
+    path.write_text(GOOD + "wordings = ['']\n", encoding="utf-8")
+    with pytest.raises(InstructionError, match="'wordings' must be a list of non-empty strings"):
+        load_instructions(path)

@@ -19,7 +19,7 @@ LAYERS: tuple[tuple[str, tuple[str, ...]], ...] = (
     ("tasks", ("tasks",)),
     ("world adapter", ("worlds",)),
     ("viewing", ("viz",)),
-    ("application", ("application", "il", "evaluation", "results", "reproduce")),
+    ("application", ("application", "il", "evaluation", "results", "reproduce", "combinations")),
     ("cli", ("cli",)),
 )
 """Layers from the bottom up, each with its top-level modules and packages of ``taskcond``. A layer may

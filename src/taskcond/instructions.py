@@ -11,6 +11,11 @@ The package ships ``data/instructions.toml``; a user's file has the same form::
     goal = ["bottle inside box", "box closed", "gripper not grasping"]
     tags = ["move_into", "closed-container"]    # optional: what the instruction covers
     note = "..."                     # optional: what the goal cannot say
+    wordings = ["Put the bottle in the box, then shut it."]   # optional: other phrasings (below)
+
+An instruction with ``wordings`` is said in one of ``[text, *wordings]`` per episode, the one the episode's
+seed picks (:meth:`Instruction.text_for`: seed modulo their number), so that any n consecutive seeds say it
+each of its n ways once (the combination benchmark, :mod:`taskcond.combinations`).
 
 Goal predicates are parsed and checked like a task condition's (:func:`taskcond.conditions.
 parse_predicate`, no contradicting pair); whether their objects exist in the instruction's scene is checked
@@ -49,7 +54,7 @@ needs more than the instruction says (a closed container, an object or open draw
 (paraphrase, multi-word object names, misspellings), the dual-arm scene, an object no demonstration shows."""
 
 _ID = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_\-]*$")
-_KEYS = {"id", "text", "goal", "tags", "note"}
+_KEYS = {"id", "text", "goal", "tags", "note", "wordings"}
 
 
 class InstructionError(ValueError):
@@ -66,6 +71,8 @@ class Instruction:
         goal: the predicates that hold when it is done (ground truth at the end of an episode).
         tags: what it covers (:data:`TAGS`).
         note: what the goal cannot express (a tilt angle, a target position), or empty.
+        wordings: other phrasings of the same instruction (same goal); an episode says one of ``text`` and
+            these, by its seed (:meth:`text_for`).
     """
 
     id: str
@@ -73,6 +80,16 @@ class Instruction:
     goal: tuple[Predicate, ...]
     tags: tuple[str, ...] = ()
     note: str = ""
+    wordings: tuple[str, ...] = ()
+
+    @property
+    def texts(self) -> tuple[str, ...]:
+        """Every phrasing: ``text`` first, then :attr:`wordings`."""
+        return (self.text, *self.wordings)
+
+    def text_for(self, seed: int) -> str:
+        """The phrasing an episode of reset seed ``seed`` says: ``texts[seed % len(texts)]``."""
+        return self.texts[seed % len(self.texts)]
 
 
 def default_file() -> Path:
@@ -144,7 +161,12 @@ def _instruction(entry: object, where: str) -> Instruction:
     note = entry.get("note", "")
     if not isinstance(note, str):
         raise InstructionError(f"{where}: 'note' must be a string")
-    return Instruction(ident, " ".join(text.split()), goal, tuple(tags), note)
+    wordings = entry.get("wordings", [])
+    if not isinstance(wordings, list) or not all(isinstance(w, str) and w.strip() for w in wordings):
+        raise InstructionError(f"{where}: 'wordings' must be a list of non-empty strings")
+    return Instruction(
+        ident, " ".join(text.split()), goal, tuple(tags), note, tuple(" ".join(w.split()) for w in wordings)
+    )
 
 
 def check_objects(instruction: Instruction, objects: Iterable[str], grippers: Iterable[str]) -> str | None:

@@ -28,7 +28,7 @@ from taskcond.execution.executor import ConditionSource, ExecutionResult, Execut
 from taskcond.execution.failures import FailureKind
 from taskcond.execution.planner import PlanRepair, goal_of, repair
 from taskcond.execution.skills import SkillLibrary
-from taskcond.tasks.free import STARTS, FreeTask, RandomStart, final_predicates
+from taskcond.tasks.free import STARTS, FreeTask, RandomStart, fallen_objects, final_predicates
 from taskcond.tasks.registry import get_task, make
 from taskcond.viz.episode import EpisodeInfo, EpisodeObserver, ObservedWorld, Observers
 from taskcond.worlds.kitchen import KitchenWorld
@@ -74,6 +74,8 @@ class EpisodeResult:
         plan_goal_held: whether every ``plan_goal`` predicate holds at the end (None without a given goal).
         start: ``task`` or ``random`` (:data:`~taskcond.tasks.free.STARTS`).
         final_predicates: every relation and state that holds at the end (ground truth), sorted.
+        fallen: the free objects that lie fallen over at the end and no gripper holds
+            (:func:`~taskcond.tasks.free.fallen_objects`), sorted; empty when none fell.
         events: the trace.
         conditions: task name → condition used (JSON form).
         left_out: in a novel-primitive episode (Table IV, third block), the primitive whose examples the
@@ -101,6 +103,7 @@ class EpisodeResult:
     plan_goal_held: bool | None = None
     start: str = "task"
     final_predicates: list[str] = field(default_factory=list)
+    fallen: list[str] = field(default_factory=list)
     events: list[dict[str, Any]] = field(default_factory=list)
     conditions: dict[str, Any] = field(default_factory=dict)
     left_out: str | None = None
@@ -190,6 +193,7 @@ def run_episode(
             plan_goal_held=all(map(env.truth.holds, plan_goal)) if given else None,
             success=success,
             final=final_predicates(env),
+            fallen=fallen_objects(env),
             sim_seconds=world.time,
             env_seconds=world.env_seconds,
         )
@@ -269,6 +273,7 @@ class _Outcome:
     plan_goal_held: bool | None
     success: bool
     final: list[str]
+    fallen: list[str]
     sim_seconds: float
     env_seconds: float
 
@@ -303,6 +308,7 @@ class _Outcome:
             plan_goal_held=self.plan_goal_held,
             start=start,
             final_predicates=self.final,
+            fallen=self.fallen,
             events=[] if result is None else [e.to_dict() for e in result.events],
             conditions={} if result is None else {k: v.to_dict() for k, v in result.conditions.items()},
         )

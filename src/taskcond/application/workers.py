@@ -95,7 +95,8 @@ def _recordings(directory: Path, every: bool) -> Any:
 # long: one episode as a record: baseline, suite task or instruction, recorded or not, crash caught
 def run_initialized(job: Job, observers: Sequence[EpisodeObserver] = ()) -> dict[str, Any]:
     """One episode as a results record: a suite task, or with an instructions file the instruction of
-    that id (its plan from the LLM, judged by its goal; a plan the LLM cannot give is a failed episode,
+    that id in the wording the job's seed picks (:meth:`~taskcond.instructions.Instruction.text_for`; its
+    plan from the LLM, judged by its goal; a plan the LLM cannot give is a failed episode,
     ``decomposition``), watched by ``observers`` and, with :attr:`WorkerArgs.rerun`, recorded (the
     record's ``rerun`` names a recording kept). An exception is returned as a ``crashed`` record (not a
     result: a resumed evaluation runs it again)."""
@@ -124,9 +125,10 @@ def run_initialized(job: Job, observers: Sequence[EpisodeObserver] = ()) -> dict
         if instruction is None:
             plan, goal, extra = plan_run(job.task), None, {}
         else:
-            extra = {"task": instruction.id, "instruction": instruction.text}
+            text = instruction.text_for(job.seed)
+            extra = {"task": instruction.id, "instruction": text}
             try:
-                plan = instruction_plan(instruction.text, _WORKER["decomposer"])
+                plan = instruction_plan(text, _WORKER["decomposer"])
             except DecompositionError as exc:
                 return unplanned(job, instruction, str(exc), _WORKER["planner"], _WORKER["start"])
             goal = instruction.goal
@@ -161,7 +163,7 @@ def unplanned(job: Job, instruction: Any, reason: str, planner: str, start: str)
     a task the scene cannot do). A failure of the method, not a crash."""
     return {
         "task": instruction.id,
-        "instruction": instruction.text,
+        "instruction": instruction.text_for(job.seed),
         "method": job.method,
         "seed": job.seed,
         "success": False,

@@ -10,7 +10,7 @@ from typing import NoReturn
 
 import typer
 
-from taskcond.cli import conditions, evaluate, reproduce, run, skills, viz
+from taskcond.cli import combinations, conditions, evaluate, reproduce, run, skills, viz
 
 app = typer.Typer(
     help="Long-horizon manipulation guided by LLM-generated task conditions (arXiv 2310.02264).",
@@ -37,6 +37,7 @@ app.command(help="Run one stored episode of a results file again, to a Rerun rec
 )
 eval_app.command("conditions")(conditions.eval_conditions)
 eval_app.command("instructions")(evaluate.eval_instructions)
+eval_app.command("combinations")(combinations.eval_combinations)
 eval_app.command("primitives", help="Success rate of every primitive task per execution method (Table III).")(
     evaluate.eval_command("primitives")
 )

@@ -8,7 +8,7 @@ import contextlib
 import json
 import sys
 from pathlib import Path
-from typing import Annotated
+from typing import TYPE_CHECKING, Annotated
 
 import typer
 
@@ -36,6 +36,9 @@ from taskcond.cli.skills import _il_policy
 from taskcond.conditions import ConditionError
 from taskcond.llm.base import LLMError
 from taskcond.primitives import TaskNameError
+
+if TYPE_CHECKING:
+    from taskcond.results import Job
 
 
 # long: the resume/progress/crash loop the three eval commands share; next: application/evaluate.py
@@ -82,7 +85,7 @@ def _run_episodes(
         fail(str(exc))
     done = results.done(Job.key_of)
     todo = [j for j in jobs if j.key not in done]
-    steps = _instruction_steps(instructions, {j.task for j in todo}, settings.llm) if instructions else {}
+    steps = _instruction_steps(instructions, todo, settings.llm) if instructions else {}
     llms = [m for m in ("llm", "llm+demo") if any(j.method == m for j in todo)]
     for method in llms:  # every condition once here; the workers read the cache
         try:
@@ -104,7 +107,7 @@ def _run_episodes(
                 s
                 for j in todo
                 if j.method == method
-                for s in (steps.get(j.task, ()) if instructions else plan_run(j.task).steps)
+                for s in (steps.get(j.key, ()) if instructions else plan_run(j.task).steps)
             }
             for name in tqdm(sorted(names), desc="conditions", unit="task", file=sys.stderr, disable=None):
                 source.condition(name)  # type: ignore[union-attr]
@@ -150,10 +153,12 @@ def _run_episodes(
     return records, config.to_dict() | {"digest": config.digest, "crashed": len(crashed)}
 
 
-def _instruction_steps(path: Path, ids: set[str], llm: str | None) -> dict[str, tuple[str, ...]]:
-    """Instruction id → its primitive tasks, for the instructions of ``path`` among ``ids``: the LLM's
-    decomposition, asked once here (cached; the workers read the cache). An instruction the LLM gives no
-    plan for is left out: its episodes record the failure."""
+def _instruction_steps(
+    path: Path, jobs: list[Job], llm: str | None
+) -> dict[tuple[str, str, int], tuple[str, ...]]:
+    """Job key → its primitive tasks, for the ``jobs`` on instructions of ``path``: the LLM's
+    decomposition of the wording each job's seed picks, asked once per wording here (cached; the workers
+    read the cache). A wording the LLM gives no plan for is left out: its episodes record the failure."""
     from tqdm import tqdm
 
     from taskcond.application.plans import instruction_plan, llm_decomposer
@@ -161,16 +166,19 @@ def _instruction_steps(path: Path, ids: set[str], llm: str | None) -> dict[str, 
     from taskcond.instructions import load_instructions
 
     decomposer = llm_decomposer(llm)
-    chosen = [i for i in load_instructions(path) if i.id in ids]
-    steps = {}
-    for ins in tqdm(chosen, desc="decomposing", unit="instruction", file=sys.stderr, disable=None):
+    by_id = {i.id: i for i in load_instructions(path)}
+    texts = {j.key: by_id[j.task].text_for(j.seed) for j in jobs if j.task in by_id}
+    plans: dict[str, tuple[str, ...]] = {}
+    for text in tqdm(
+        sorted(set(texts.values())), desc="decomposing", unit="wording", file=sys.stderr, disable=None
+    ):
         try:
-            steps[ins.id] = instruction_plan(ins.text, decomposer).steps
+            plans[text] = instruction_plan(text, decomposer).steps
         except DecompositionError:
             continue
         except LLMError as exc:
             fail(str(exc))
-    return steps
+    return {key: plans[text] for key, text in texts.items() if text in plans}
 
 
 def _eval_execution(

@@ -64,7 +64,9 @@ def run(
     world: WorldOption = "kitchen",
 ) -> None:
     """Perform a long-horizon task: conditions, the look-ahead planner, Alg. 1 pre-condition satisfaction,
-    Alg. 2 DMP control; a free instruction is judged by its goal predicates (exit 0 only on success)."""
+    Alg. 2 DMP control; a free instruction is judged by its goal predicates (exit 0 only on success): the
+    goal its words say when they are a wording of the combination benchmark ("stack the bowl on the box":
+    ``bowl above box``), else the goal its plan derives."""
     if robosuite.check_world(world):
         if video is not None and video.suffix.lower() not in (".mp4", ".gif"):
             fail(f"--video {video}: use a .mp4 or .gif file name")
@@ -102,6 +104,7 @@ def run(
     trace_path = trace or stem.with_suffix(".json")
 
     config = execution_config(skills or default_library_dir(), noise, llm, planner=planner, start=start)
+    goal = _words_goal(plan)
     result = run_episode(
         plan,
         method,  # type: ignore[arg-type]
@@ -117,6 +120,7 @@ def run(
         start_state=start,
         video_size=video_size,
         observers=cli_viz.run_observers(rerun),
+        goal=goal,
     )
     _write_trace(trace_path, plan, config, result)
     if result.failure == FailureKind.IMPOSSIBLE:
@@ -132,6 +136,17 @@ def run(
     )
     if not result.success:
         raise typer.Exit(1)
+
+
+def _words_goal(plan):
+    """The goal a decomposed instruction's words say when they are a wording of the combination benchmark
+    (:func:`taskcond.combinations.goal_of_words`), else None (the goal the plan derives)."""
+    if not plan.decomposed or plan.scene != "kitchen":
+        return None
+    from taskcond.combinations import generate, goal_of_words
+    from taskcond.sim.roles import scene_roles
+
+    return goal_of_words(plan.label, generate(scene_roles()))
 
 
 def _resolve(spec: str, llm: str | None):

@@ -588,13 +588,18 @@ AssetSpec = (
 )
 
 
+def interiors_of(name: str, spec: AssetSpec) -> dict[str, Interior]:
+    """The container interiors of the asset ``name`` built from ``spec``: a drawer's by its condition name, a
+    box's, microwave's or vessel's by ``name``; none for the rest."""
+    if isinstance(spec, CabinetSpec):
+        return spec.interiors()
+    if isinstance(spec, BoxSpec | MicrowaveSpec | VesselSpec):
+        return {name: spec.interior()}
+    return {}
+
+
 def build_asset(name: str, spec: AssetSpec) -> Asset:
     """Write the URDF of ``spec`` (cached by content) and return it with its container interiors."""
     joints = spec.joints() if isinstance(spec, BoxSpec | CabinetSpec | MicrowaveSpec) else []
     path = write_urdf(name, urdf_text(name, spec.links(), joints))
-    interiors: dict[str, Interior] = {}
-    if isinstance(spec, CabinetSpec):
-        interiors = spec.interiors()
-    elif isinstance(spec, BoxSpec | MicrowaveSpec | VesselSpec):
-        interiors = {name: spec.interior()}
-    return Asset(path, interiors)
+    return Asset(path, interiors_of(name, spec))

@@ -47,6 +47,9 @@ _POSITION = itemgetter(0)
 """Item 0 of a ``p.getJointStates`` entry: the joint position (m or rad)."""
 TABLE = "table"
 """The body everything else stands on."""
+LYING = float(np.cos(np.radians(45.0)))
+"""A free object whose upright axis has a world-z component below this (tilted more than 45°) lies: it fell
+over (:meth:`KitchenScene.lying`)."""
 
 
 @dataclass(frozen=True)
@@ -478,6 +481,23 @@ class KitchenScene:
         pos, _ = p.multiplyTransforms((float(xy[0]), float(xy[1]), z + 0.0005), orn, local, (0, 0, 0, 1))
         p.resetBasePositionAndOrientation(body, pos, orn, physicsClientId=self.client)
         p.resetBaseVelocity(body, (0, 0, 0), (0, 0, 0), physicsClientId=self.client)
+
+    def lying(self) -> tuple[str, ...]:
+        """The free objects tilted more than 45° from upright (:data:`LYING`), from their poses: the one
+        definition of an object that fell over (the executor's perception and an episode's ``fallen``). A
+        cube stands on any face: it lies only when none of its axes is within 45° of vertical."""
+        out = []
+        for name in self.free_objects:
+            axes = p.getMatrixFromQuaternion(self.pose(name)[1])  # row-major: row 2 is world z of each axis
+            up = max(abs(a) for a in axes[6:9]) if self._cube(name) else axes[8]
+            if up < LYING:
+                out.append(name)
+        return tuple(out)
+
+    def _cube(self, name: str) -> bool:
+        """A block whose three sides are equal (within a millimetre): turned onto another face, it stands."""
+        spec = self.specs[name]
+        return isinstance(spec, BlockSpec) and max(spec.size) - min(spec.size) < 1e-3
 
     def yaw(self, name: str) -> float:
         return float(p.getEulerFromQuaternion(self.pose(name)[1])[2])

@@ -1,6 +1,7 @@
 """The suite's task kinds for free instructions and random starts: :class:`FreeTask` (an instruction's episode
 in a scene), :class:`RandomStart` (a suite task from a random start state, :func:`random_start`), and
-:func:`final_predicates`, what holds at an episode's end by the ground truth.
+:func:`final_predicates`, what holds at an episode's end by the ground truth, and :func:`fallen_objects`, what
+lies there fallen over.
 """
 
 from __future__ import annotations
@@ -199,6 +200,15 @@ class FreeTask(Task):
 
     def success(self, env: KitchenEnv, truth: GroundTruth | None = None) -> bool:
         return False
+
+
+def fallen_objects(env: KitchenEnv) -> list[str]:
+    """The free objects that lie at the end of an episode (fell over, :meth:`~taskcond.sim.scene.
+    KitchenScene.lying`) and that no gripper holds (a tilted bottle in the hand did not fall), sorted: what
+    an episode's ``fallen`` reports."""
+    grippers = ["gripper", *((KINOVA_GRIPPER,) if env.kinova is not None else ())]
+    held = {o for o in env.scene.lying() for g in grippers if env.truth.holds(GripperState(o, g))}
+    return sorted(set(env.scene.lying()) - held)
 
 
 def final_predicates(env: KitchenEnv) -> list[str]:

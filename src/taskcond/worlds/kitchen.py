@@ -5,7 +5,6 @@ The executor core (:mod:`taskcond.execution`) knows the simulator only through t
 
 from __future__ import annotations
 
-import math
 import time
 from collections.abc import Callable
 from functools import cache
@@ -33,10 +32,6 @@ VIDEO_EVERY = 2
 KINOVA_STILL = 1e-4
 """A demonstration step whose Kinova commands vary less than this (m, quaternion units, gripper) is a
 Franka-only demonstration: the Kinova held still."""
-
-
-LYING = math.cos(math.radians(45.0))
-"""A free object whose upright axis has a world-z component below this (tilted more than 45°) lies."""
 
 
 def _observation(info: EnvironmentInfo, round_: frozenset[str], lying: frozenset[str]) -> Observation:
@@ -141,14 +136,8 @@ class KitchenWorld:
         return self._observed[1]
 
     def _lying(self) -> frozenset[str]:
-        """The free objects tilted more than 45° from upright (:data:`LYING`), from their poses."""
-        lying = []
-        for name in self.env.scene.free_objects:
-            _, orn = self.env.scene.pose(name)
-            up = p.getMatrixFromQuaternion(orn)[8]  # world z of the object's own z axis
-            if up < LYING:
-                lying.append(name)
-        return frozenset(lying)
+        """The free objects that fell over (:meth:`~taskcond.sim.scene.KitchenScene.lying`)."""
+        return frozenset(self.env.scene.lying())
 
     def touches(self) -> tuple[Touch, ...]:
         """Contacts of the arms (all of an arm's links are its gripper) and of whatever they touch with
