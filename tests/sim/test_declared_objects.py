@@ -18,8 +18,8 @@ from taskcond.conditions import Relation, SpatialRelation
 from taskcond.envs.kitchen import KitchenEnv
 from taskcond.execution.approach import perceived_shapes
 from taskcond.execution.skills import ObjectShape, dissimilarity, offset_scale
-from taskcond.objects import ObjectError, forget_objects, load_objects, objects_files
 from taskcond.sim.assets import MeshSpec, SolidSpec, VesselSpec
+from taskcond.sim.objects import ObjectError, forget_objects, load_objects, objects_files
 from taskcond.sim.scene import SceneConfig, scene_aliases, suite_config
 from taskcond.tasks.free import FreeTask
 from taskcond.worlds.kitchen import KitchenWorld

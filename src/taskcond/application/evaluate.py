@@ -21,7 +21,6 @@ from taskcond.application.kinds import EvalMethod
 from taskcond.application.ray_backend import run_on_ray
 from taskcond.application.workers import WorkerArgs, init_worker, llm_threads, run_initialized
 from taskcond.execution.config import ExecutionConfig
-from taskcond.objects import loaded_files, objects_files
 from taskcond.results import (
     Job,
     ResultsFile,
@@ -31,6 +30,7 @@ from taskcond.results import (
     file_digest,
     llm_fields,
 )
+from taskcond.sim.objects import loaded_files, objects_files
 from taskcond.tasks.registry import list_tasks, primitive_task_ids
 
 EVAL_METHODS: tuple[EvalMethod, ...] = tuple(EvalMethod)
@@ -69,7 +69,7 @@ def execution_config(
     perception noise ``noise``, LLM conditions from ``llm`` (the ``--llm`` spec; resolved as
     :func:`make_source` does), the executor constants ``execution`` (default ones when None), the plan
     repair ``planner``, the start state ``start``, the declared objects' files
-    (:func:`~taskcond.objects.objects_files`), the instructions file ``instructions`` (the
+    (:func:`~taskcond.sim.objects.objects_files`), the instructions file ``instructions`` (the
     instruction benchmark), when the baseline runs, its checkpoint ``il_dir`` (``library_dir`` None: no
     episode uses the skill library), and whether each episode leaves out one primitive's examples
     (``novel_primitive``, :func:`novel_primitive_source`).

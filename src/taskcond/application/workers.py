@@ -68,7 +68,7 @@ def llm_threads(workers: int, backend: str = "local") -> int | None:
 
 def init_worker(args: WorkerArgs) -> None:
     from taskcond.instructions import load_instructions
-    from taskcond.objects import load_objects
+    from taskcond.sim.objects import load_objects
 
     for path in args.objects:
         load_objects(path)

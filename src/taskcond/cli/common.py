@@ -130,7 +130,7 @@ ObjectsOption = Annotated[
 def _declare_objects(files: list[Path] | None) -> None:
     """Register the objects declared in ``files`` (``--objects``): one ``error:`` line naming the file and
     the entry, exit 2, for a bad declaration."""
-    from taskcond.objects import ObjectError, load_objects
+    from taskcond.sim.objects import ObjectError, load_objects
 
     for path in files or ():
         try:

@@ -23,6 +23,7 @@ from taskcond.execution.events import EventLog
 from taskcond.execution.failures import ExecutionError, FailureKind
 from taskcond.execution.observer import ExecutionObserver, planned_path
 from taskcond.execution.skills import (
+    Choice,
     ObjectShape,
     Segment,
     Skill,
@@ -224,18 +225,7 @@ class Approach:
                 FailureKind.FALLEN,
             )
         here, here_q = self.world.ee_pose()
-        try:
-            choice = self.library.choose(task, perceived_shapes(obs, parsed.objects))
-        except SkillError as exc:
-            raise ExecutionError(str(exc), FailureKind.NO_SKILL) from None
-        offset = here - target if target is not None else here
-        skill = self.library.nearest(choice.skills, offset, here_q)
-        if skill.arms > len(self.world.arms):
-            raise ExecutionError(
-                f"skill {skill.task_id} of {task!r} moves {skill.arms} arms; this robot has "
-                f"{len(self.world.arms)}",
-                FailureKind.NO_SKILL,
-            )
+        choice, skill = self._choose(task, obs, here - target if target is not None else here, here_q)
         carry = parsed.primitive.approach is HandApproach.CARRY and obs.grasped() == parsed.objects[0]
         far = (
             ((parsed.primitive.approach is HandApproach.EMPTY_HAND and not retry) or carry)
@@ -244,37 +234,44 @@ class Approach:
         )
         if far and not carry:
             skill = max(choice.skills, key=lambda s: float(s.start_offset[2]))
-        demo = parse_task(skill.task_name).objects
-        scale = np.ones(3)
-        if parsed.primitive.approach is HandApproach.EMPTY_HAND and target_name is not None:
-            role = parsed.primitive.target or 0
-            if target_name != demo[role]:
-                shapes = perceived_shapes(obs, (target_name,))
-                scale = offset_scale(shapes.get(target_name), skill.shapes.get(demo[role]))
+        scale = _empty_hand_scale(task, skill, obs)
         turn = 0.0
         if grasp and target is not None and target_name in obs.round and skill.segments[0].anchor == "target":
             turn = self._turn(skill, target_name, target, obs, far, scale)
         aside = np.zeros(3)
         if carry and target is not None and target_name is not None:
-            aside = carry_shift(parsed.primitive.id, parsed.objects, demo, skill, obs, here)
+            aside = carry_shift(task, skill, obs, here)
         if parsed.primitive.id == "move_on_top" and target is not None and target_name is not None:
             aside = aside + self._aside(skill, target_name, target + aside, obs)
         approach = target + aside + turned(skill.start_offset, turn) if far and target is not None else None
         over = None
         if carry and approach is not None:
             over = _carry_height(parsed.objects[0], here, approach, obs, self.world.arms)
-        return Aim(
-            task,
-            skill,
-            target_name,
-            None if target is None else target + aside,
-            turn,
-            aside,
-            approach,
-            over,
-            scale,
-            choice.reason,
-        )
+        aimed = None if target is None else target + aside
+        return Aim(task, skill, target_name, aimed, turn, aside, approach, over, scale, choice.reason)
+
+    def _choose(
+        self, task: str, obs: Observation, offset: np.ndarray, orientation: np.ndarray
+    ) -> tuple[Choice, Skill]:
+        """The skills for ``task`` on the objects as perceived in ``obs`` (those demonstrated on the most
+        similar objects, :meth:`~taskcond.execution.skills.SkillLibrary.choose`) and of them the one
+        demonstrated from nearest the hand's ``offset`` (3,) m and ``orientation`` (4,) xyzw.
+
+        Raises:
+            ExecutionError: no skill of the primitive, or it needs more arms than the robot has.
+        """
+        try:
+            choice = self.library.choose(task, perceived_shapes(obs, parse_task(task).objects))
+        except SkillError as exc:
+            raise ExecutionError(str(exc), FailureKind.NO_SKILL) from None
+        skill = self.library.nearest(choice.skills, offset, orientation)
+        if skill.arms > len(self.world.arms):
+            raise ExecutionError(
+                f"skill {skill.task_id} of {task!r} moves {skill.arms} arms; this robot has "
+                f"{len(self.world.arms)}",
+                FailureKind.NO_SKILL,
+            )
+        return choice, skill
 
     def _far(self, task: str, skill: Skill, offset: np.ndarray) -> bool:
         """Whether the hand, at ``offset`` (3,) m from the target, is farther than
@@ -543,6 +540,20 @@ def _support_below(obj: str, obs: Observation, arms: Sequence[str]) -> float | N
     return max(tops, default=None)
 
 
+def _empty_hand_scale(task: str, skill: Skill, obs: Observation) -> np.ndarray:
+    """(3,) factors on the demonstrated offset of an empty-hand primitive (a grasp) borrowed from another
+    target object (:func:`~taskcond.execution.skills.offset_scale` of the perceived and the demonstrated
+    boxes); ones for its own demonstration and for the other primitives."""
+    parsed = parse_task(task)
+    role = parsed.primitive.target
+    if parsed.primitive.approach is not HandApproach.EMPTY_HAND or role is None or role < 0:
+        return np.ones(3)
+    target, demo = parsed.objects[role], parse_task(skill.task_name).objects[role]
+    if target == demo:
+        return np.ones(3)
+    return offset_scale(perceived_shapes(obs, (target,)).get(target), skill.shapes.get(demo))
+
+
 def perceived_shapes(obs: Observation, names: Sequence[str]) -> dict[str, ObjectShape]:
     """The shape class (``fixed`` for what is not a free object) and perceived box size of each of ``names``
     that ``obs`` has a box of: what :meth:`~taskcond.execution.skills.SkillLibrary.choose` compares."""
@@ -554,14 +565,7 @@ def perceived_shapes(obs: Observation, names: Sequence[str]) -> dict[str, Object
     }
 
 
-def carry_shift(
-    primitive: str,
-    objects: Sequence[str],
-    demo: Sequence[str],
-    skill: Skill,
-    obs: Observation,
-    hand: np.ndarray,
-) -> np.ndarray:
+def carry_shift(task: str, skill: Skill, obs: Observation, hand: np.ndarray) -> np.ndarray:
     """(3,) m by which a carry borrowed from other objects moves its goal (issue 31: the place above the
     target scaled from the perceived boxes), zero for the demonstrated objects: up by how much higher the
     hand holds the carried object above its bottom than the demonstration's hand held its object
@@ -571,6 +575,8 @@ def carry_shift(
     difference of heights on top of or into it, down by it in front of it, where the object stays on the
     floor."""
     shift = np.zeros(3)
+    parsed, demo = parse_task(task), parse_task(skill.task_name).objects
+    primitive, objects = parsed.primitive.id, parsed.objects
     carried, target = objects[0], objects[-1]
     if carried != demo[0] and carried in obs.boxes and skill.hold_depth is not None:
         shift[2] += float(hand[2] - obs.boxes[carried][0][2]) - skill.hold_depth

@@ -85,7 +85,7 @@ SUITE_ROLES: dict[str, frozenset[Role]] = {
 
 @dataclass(frozen=True)
 class DeclaredObject:
-    """An object a user declared (``--objects``, :func:`taskcond.objects.load_objects`), kept in the scene
+    """An object a user declared (``--objects``, :func:`taskcond.sim.objects.load_objects`), kept in the scene
     exactly like the suite's objects: its spec and nominal placement join :attr:`SceneConfig.free_objects`,
     its roles :attr:`SceneConfig.roles`, its aliases :func:`scene_aliases`.
 
@@ -108,7 +108,7 @@ class DeclaredObject:
 
 
 DECLARED: dict[str, DeclaredObject] = {}
-"""The declared objects of this process by name (:func:`taskcond.objects.register_object`); every
+"""The declared objects of this process by name (:func:`taskcond.sim.objects.register_object`); every
 :class:`SceneConfig` made after a declaration has them."""
 
 
