@@ -396,17 +396,24 @@ class Choice:
         )
 
 
+SCALE_DEADBAND = 0.15
+"""Ratios of perceived to demonstrated box edges within this fraction of 1 count as 1 in
+:func:`offset_scale`: with the default perception noise (σ = 5 mm on each corner coordinate) a 6.6 cm edge
+is perceived within ±11 % (1σ), and a grasp should not wander with the noise."""
+
+
 def offset_scale(task_target: ObjectShape | None, demo_target: ObjectShape | None) -> np.ndarray:
     """Per world axis (3,), the factor on a grasp's demonstrated offset from the target's centre when the
     skill was demonstrated on another object (issue 31: grasp height and width scaled from the perceived
     box): the ratio of the perceived to the demonstrated box's mean horizontal edge for x and y (where the
     fingers close on a wall), of their heights for z (how high on the object the hand closes), each
-    clipped to [1/4, 4]; ones when either shape is unknown."""
+    clipped to [1/4, 4] and 1 within :data:`SCALE_DEADBAND` of it; ones when either shape is unknown."""
     if task_target is None or demo_target is None:
         return np.ones(3)
     xy = task_target.width / max(demo_target.width, 1e-3)
     z = task_target.height / max(demo_target.height, 1e-3)
-    return np.clip(np.array([xy, xy, z]), 0.25, 4.0)
+    ratios = np.clip(np.array([xy, xy, z]), 0.25, 4.0)
+    return np.where(np.abs(ratios - 1.0) <= SCALE_DEADBAND, 1.0, ratios)
 
 
 @dataclass
