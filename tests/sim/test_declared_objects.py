@@ -172,3 +172,24 @@ def test_taskcond_run_grasps_a_declared_object_from_a_random_start(library, tmp_
     [event] = [e for e in data["events"] if e["kind"] == "primitive"][:1]
     assert event["demonstration"] == "grasp bottle" and "bottle stands in for soup can" in event["similar"]
     assert event["offset_scale"][2] < 1.0
+
+
+def test_an_obj_mesh_from_pybullet_data_stands_on_the_table_at_its_scale(tmp_path) -> None:
+    """A Wavefront file is wrapped in a URDF; the scene stands it by its bounding box, wherever its own
+    origin lies (the bunny's is inside it)."""
+    path = tmp_path / "mesh.toml"
+    path.write_text(
+        '[[object]]\nname = "bunny"\nfile = "pybullet_data:bunny.obj"\nscale = 0.04\n'
+        "upright = [1.5708, 0.0, 0.0]\nmass = 0.05\ncolor = [0.9, 0.8, 0.7]\nplace = [0.45, 0.05]\n"
+    )
+    load_objects(path)
+    env = KitchenEnv(FreeTask("anything"))
+    try:
+        env.reset(seed=0)
+        obs = KitchenWorld(env).observe()
+        lo, hi = obs.boxes["bunny"]
+        assert hi[2] - lo[2] == pytest.approx(0.04 * (0.777 + 0.667), abs=0.012)  # its y, stood up
+        assert abs(lo[2]) < 0.012 and np.hypot(*(obs.centers["bunny"][:2] - (0.45, 0.05))) < 0.04
+        assert obs.shapes["bunny"] == "mesh" and "bunny" not in obs.lying
+    finally:
+        env.close()
