@@ -45,7 +45,7 @@ def main() -> None:
             for seed in range(args.seed, args.seed + args.episodes)
         ]
         skills = Counter(e.get("skill") for r in results for e in r.events if e["kind"] == "primitive")
-        failures = Counter(r.failure for r in results if not r.success)
+        failures = Counter(str(r.failure) for r in results if not r.success)
         ok = sum(bool(r.success) for r in results)
         wall = statistics.median(r.wall_seconds for r in results)
         print(f"| {name} | {ok}/{len(results)} | {dict(failures) or '-'} | {dict(skills)} | {wall:.1f} |")
