@@ -193,3 +193,15 @@ def test_an_obj_mesh_from_pybullet_data_stands_on_the_table_at_its_scale(tmp_pat
         assert obs.shapes["bunny"] == "mesh" and "bunny" not in obs.lying
     finally:
         env.close()
+
+
+@pytest.mark.parametrize("command", [["learn"], ["conditions", "grasp ball"], ["eval", "primitives"]])
+def test_every_command_with_objects_refuses_a_bad_declaration(tmp_path, capsys, command) -> None:
+    """``--objects`` on learn, conditions and eval (run: above) is read before anything else runs."""
+    path = tmp_path / "bad.toml"
+    path.write_text('[[object]]\nname = "ball"\nshape = "sphere"\nsize = [0.03]\ncolour = [1, 0, 0]\n')
+    with pytest.raises(SystemExit) as exit_:
+        main([*command, "--objects", str(path)])
+    err = capsys.readouterr().err.strip()
+    assert exit_.value.code == 2 and len(err.splitlines()) == 1
+    assert err.startswith(f"error: {path}: object 1 ('ball'): unknown key(s) ['colour']")
