@@ -236,16 +236,24 @@ def register_object(obj: DeclaredObject) -> DeclaredObject:
     Raises:
         ObjectError: another object of that name is declared already.
     """
+    reason = _redeclared(obj)
+    if reason is not None:
+        raise ObjectError(f"{obj.source}: {reason}")
+    DECLARED[obj.name] = obj
+    return obj
+
+
+def _redeclared(obj: DeclaredObject) -> str | None:
+    """Why ``obj`` cannot be declared over an object of its name already declared otherwise, or None."""
     old = DECLARED.get(obj.name)
-    if old is not None and (old.spec, old.placement, old.roles, old.aliases) != (
+    if old is None or (old.spec, old.placement, old.roles, old.aliases) == (
         obj.spec,
         obj.placement,
         obj.roles,
         obj.aliases,
     ):
-        raise ObjectError(f"{obj.source}: {obj.name!r} is declared differently in {old.source}")
-    DECLARED[obj.name] = obj
-    return obj
+        return None
+    return f"{obj.name!r} is declared differently in {old.source}"
 
 
 def unregister_object(name: str) -> None:
@@ -291,6 +299,8 @@ def load_objects(path: str | Path) -> list[DeclaredObject]:
             clash = set((obj.name, *obj.aliases)) & {w for d in declared for w in (d.name, *d.aliases)}
             if clash:
                 raise ObjectError(f"{sorted(clash)[0]!r} names another object of this file")
+            if (reason := _redeclared(obj)) is not None:
+                raise ObjectError(reason)
         except ObjectError as exc:
             raise ObjectError(f"{path}: {label}: {exc}") from None
         if "place" not in entry:
@@ -299,10 +309,7 @@ def load_objects(path: str | Path) -> list[DeclaredObject]:
             hashes.update(Path(obj.spec.path).read_bytes())
         declared.append(obj)
     for obj in declared:
-        try:
-            register_object(obj)
-        except ObjectError as exc:
-            raise ObjectError(str(exc)) from None
+        register_object(obj)
     resolved = str(path.resolve())
     _FILES[resolved] = f"{resolved}@{hashes.hexdigest()[:12]}"
     return declared
