@@ -33,6 +33,7 @@ def main() -> int:
         ["bench_recording.py", "--episodes", "2" if args.quick else "5"],
         ["bench_backends.py", "--episodes", "4" if args.quick else "20"],
         ["bench_il.py"],
+        ["bench_objects.py", "--episodes", "2" if args.quick else "10"],
     ]
     failed = []
     for script, *extra in runs:

@@ -10,7 +10,13 @@ import pytest
 
 from taskcond.llm.models import cache_dir
 
-USER_SETTINGS = ("TASKCOND_LLM", "TASKCOND_PRIMITIVES", "TASKCOND_ASSET_DIR", "RAY_ADDRESS")
+USER_SETTINGS = (
+    "TASKCOND_LLM",
+    "TASKCOND_PRIMITIVES",
+    "TASKCOND_OBJECTS",
+    "TASKCOND_ASSET_DIR",
+    "RAY_ADDRESS",
+)
 """Variables by which a user chooses an LLM, declares primitives, moves the generated assets or names a
 Ray cluster: unset for the tests, with every ``OPENAI_*`` variable."""
 

@@ -56,6 +56,9 @@ class RunConfig:
             as a dict; empty for ``conditions``).
         code: ``git describe`` of the package's checkout (``-dirty+<diff hash>`` with local changes), else
             ``taskcond <package version>``.
+        objects: the declaration files of user objects in the scene (``--objects``), each
+            ``<resolved path>@<SHA-256 prefix of it and of the model files it names>``; None without any
+            (left out of :meth:`to_dict`).
         world: the world episodes ran in and its simulator's versions when it is not the PyBullet kitchen
             (``robosuite 1.5.1, mujoco 3.3.2``); None for the kitchen (left out of :meth:`to_dict`).
     """
@@ -75,6 +78,7 @@ class RunConfig:
     code: str = ""
     il: str | None = None
     world: str | None = None
+    objects: tuple[str, ...] | None = None
 
     def to_dict(self) -> dict[str, Any]:
         """The fields as a dict, without those added later (:data:`_LATER_FIELDS`) while they hold their
@@ -99,7 +103,13 @@ class RunConfig:
         return [f"{k}: {b!r} (file) vs {a!r} (now)" for k, a, b in _diff(self.to_dict(), other)]
 
 
-_LATER_FIELDS: dict[str, Any] = {"il": None, "novel_primitive": False, "instructions": None, "world": None}
+_LATER_FIELDS: dict[str, Any] = {
+    "il": None,
+    "novel_primitive": False,
+    "instructions": None,
+    "world": None,
+    "objects": None,
+}
 """Fields of :class:`RunConfig` added after results files existed, with the default they are left out at."""
 
 

@@ -14,10 +14,17 @@ from taskcond.conditions import (
 )
 from taskcond.envs.kitchen import KitchenEnv
 from taskcond.execution.demofile import RecordedTrajectory
-from taskcond.execution.skills import Demonstration, SkillLibrary, learn_skill, target_object
+from taskcond.execution.skills import (
+    Demonstration,
+    ObjectShape,
+    SkillLibrary,
+    learn_skill,
+    target_object,
+)
 from taskcond.execution.sources import condition_from_environment
 from taskcond.grounding import DemoEvidence
 from taskcond.primitives import parse_task
+from taskcond.sim.scene import suite_config
 from taskcond.tasks.base import PrimitiveTask
 from taskcond.tasks.free import FreeTask
 from taskcond.tasks.registry import get_task, make, primitive_task_ids
@@ -37,6 +44,7 @@ def _record(world: KitchenWorld, name: str, task_id: str, actions: Iterable[np.n
     trajectory, the environment information before and after, the contacts during."""
     env = world.env
     before = world.observe()
+    hand = world.ee_pose()[0]
     target = target_object(name)
     center = world.locate(target, before) if target is not None else None
     touched: set[Collision] = set()
@@ -57,6 +65,7 @@ def _record(world: KitchenWorld, name: str, task_id: str, actions: Iterable[np.n
     if actions.shape[1] == 16 and np.ptp(actions[:, 8:], axis=0).max() > KINOVA_STILL:
         arms.append(actions[:, 8:])
     task = parse_task(name)
+    held = before.grasped()
     evidence = DemoEvidence(
         task.name,
         frozenset((*task.objects, *world.arms)),
@@ -76,6 +85,13 @@ def _record(world: KitchenWorld, name: str, task_id: str, actions: Iterable[np.n
         target_contact=contact,
         condition=condition_from_environment(name, before.predicates, after.predicates, touched),
         evidence=evidence.restricted(evidence.objects),
+        shapes={
+            o: ObjectShape(before.shapes.get(o, "fixed"), tuple(map(float, hi - lo)))  # type: ignore[arg-type]
+            for o in task.objects
+            if o in before.boxes
+            for lo, hi in (before.boxes[o],)
+        },
+        hold_depth=None if held not in before.boxes else float(hand[2] - before.boxes[held][0][2]),
     )
 
 
@@ -91,7 +107,7 @@ def record_demonstrations(task_id: str, seed: int = 0) -> tuple[list[Demonstrati
     steps = [task] if isinstance(task, PrimitiveTask) else list(getattr(task, "steps", ()))
     if not steps or not all(isinstance(s, PrimitiveTask) for s in steps):
         raise ValueError(f"{task_id!r} has no primitive steps to demonstrate")
-    env = make(task_id)
+    env = make(task_id, config=suite_config())  # the suite's scene, whatever objects are declared
     try:
         env.reset(seed=seed)
         world = KitchenWorld(env)

@@ -30,6 +30,7 @@ from taskcond.results import (
     file_digest,
     llm_fields,
 )
+from taskcond.sim.objects import loaded_files, objects_files
 from taskcond.tasks.registry import list_tasks, primitive_task_ids
 
 EVAL_METHODS: tuple[EvalMethod, ...] = tuple(EvalMethod)
@@ -67,7 +68,8 @@ def execution_config(
     """The :class:`~taskcond.results.RunConfig` of episodes run with the skill library at ``library_dir``,
     perception noise ``noise``, LLM conditions from ``llm`` (the ``--llm`` spec; resolved as
     :func:`make_source` does), the executor constants ``execution`` (default ones when None), the plan
-    repair ``planner``, the start state ``start``, the instructions file ``instructions`` (the
+    repair ``planner``, the start state ``start``, the declared objects' files
+    (:func:`~taskcond.sim.objects.objects_files`), the instructions file ``instructions`` (the
     instruction benchmark), when the baseline runs, its checkpoint ``il_dir`` (``library_dir`` None: no
     episode uses the skill library), and whether each episode leaves out one primitive's examples
     (``novel_primitive``, :func:`novel_primitive_source`).
@@ -86,6 +88,7 @@ def execution_config(
         instructions=None if instructions is None else file_digest(instructions),
         il=directory_digest(il_dir) if il_dir is not None and il_dir.exists() else None,
         novel_primitive=novel_primitive,
+        objects=tuple(objects_files()) or None,
         code=code_version(),
     )
 
@@ -159,6 +162,7 @@ def evaluate(
         llm_threads(workers, backend),
         None if rerun is None else str(rerun),
         rerun_all,
+        tuple(loaded_files()),
     )
     for rec in run_jobs(todo, args, workers, backend, ray_address):
         results.append(rec)

@@ -11,7 +11,7 @@ from typing import Any
 from taskcond.decompose import mentions
 from taskcond.llm.base import ChatBackend
 from taskcond.primitives import TaskNameError, parse_task
-from taskcond.sim.scene import ALIASES
+from taskcond.sim.scene import scene_aliases
 from taskcond.tasks.registry import UnknownTaskError, get_task, list_tasks
 from taskcond.worlds.kitchen import scene_objects
 
@@ -114,7 +114,7 @@ def llm_decomposer(
             announce(scene)
         if not backends:
             backends.append(make_backend(replace(LLMConfig.load(llm), threads=threads)))
-        return decompose(instruction, backends[0], objects, affords, aliases=ALIASES)
+        return decompose(instruction, backends[0], objects, affords, aliases=scene_aliases())
 
     return decomposer
 

@@ -40,6 +40,7 @@ class WorkerArgs:
         rerun: a directory for a Rerun recording of each failed episode (None: none;
             :class:`~taskcond.viz.rerun_recording.EvalRecordings`).
         rerun_all: keep the recording of every episode there, not only of the failed ones.
+        objects: declaration files of user objects (``--objects``) the worker declares before its episodes.
     """
 
     library_dir: str
@@ -53,6 +54,7 @@ class WorkerArgs:
     llm_threads: int | None = None
     rerun: str | None = None
     rerun_all: bool = False
+    objects: tuple[str, ...] = ()
 
 
 def llm_threads(workers: int, backend: str = "local") -> int | None:
@@ -66,6 +68,10 @@ def llm_threads(workers: int, backend: str = "local") -> int | None:
 
 def init_worker(args: WorkerArgs) -> None:
     from taskcond.instructions import load_instructions
+    from taskcond.sim.objects import load_objects
+
+    for path in args.objects:
+        load_objects(path)
 
     instructions = args.instructions
     _WORKER.clear()

@@ -19,12 +19,14 @@ from taskcond.cli.common import (
     JsonOption,
     LlmOption,
     NoiseOption,
+    ObjectsOption,
     PlannerOption,
     RayAddressOption,
     SkillsOption,
     StartOption,
     WorkersOption,
     _check_start,
+    _declare_objects,
     _sim_import,
     fail,
 )
@@ -33,16 +35,13 @@ if TYPE_CHECKING:
     from taskcond.combinations import Combination, Generated, Refusal
 
 
-def _generated(objects: Path | None) -> Generated:
-    """The scene's combinations (:func:`taskcond.combinations.generate`) from its object roles."""
+def _generated(objects: list[Path] | None) -> Generated:
+    """The scene's combinations (:func:`taskcond.combinations.generate`) from its object roles, the objects
+    declared in ``objects`` (``--objects``, :func:`~taskcond.cli.common._declare_objects`) among them."""
     from taskcond.combinations import TemplateError, generate
     from taskcond.sim.roles import scene_roles
 
-    if objects is not None:
-        fail(
-            f"--objects {objects}: declared objects (issue 31, item 4) are not part of this build yet; they "
-            "will enter the benchmark through the scene config and a spec's `roles` (taskcond.sim.roles)"
-        )
+    _declare_objects(objects)
     try:
         return generate(scene_roles())
     except (TemplateError, ValueError) as exc:
@@ -171,14 +170,7 @@ def eval_combinations(
             "in turn.",
         ),
     ] = 3,
-    objects: Annotated[
-        Path | None,
-        typer.Option(
-            "--objects",
-            help="A TOML file of declared objects to enter the generated tasks (issue 31, item 4; refused "
-            "with one line until declared objects are built).",
-        ),
-    ] = None,
+    objects: ObjectsOption = None,
     primitive: Annotated[
         list[str] | None,
         typer.Option("--primitive", help="Only tasks with a step of these primitives (repeatable)."),

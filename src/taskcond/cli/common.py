@@ -115,6 +115,31 @@ PrimitivesOption = Annotated[
 ]
 
 
+ObjectsOption = Annotated[
+    list[Path] | None,
+    typer.Option(
+        "--objects",
+        envvar="TASKCOND_OBJECTS",
+        help="Declare your own objects from this TOML or JSON file (repeatable; also $TASKCOND_OBJECTS, "
+        "files separated by ':'): name, aliases, a shape with size or a .urdf/.obj file (pybullet_data: "
+        "for PyBullet's models), mass, colour, roles graspable/container/surface/vessel. See "
+        "examples/objects.toml.",
+    ),
+]
+
+
+def _declare_objects(files: list[Path] | None) -> None:
+    """Register the objects declared in ``files`` (``--objects``): one ``error:`` line naming the file and
+    the entry, exit 2, for a bad declaration."""
+    from taskcond.sim.objects import ObjectError, load_objects
+
+    for path in files or ():
+        try:
+            load_objects(path)
+        except ObjectError as exc:
+            fail(str(exc))
+
+
 def _declare(files: list[Path] | None) -> None:
     """Register the primitives declared in ``files`` (``--primitives``)."""
     from taskcond.primitives import load_primitives

@@ -14,12 +14,14 @@ from taskcond.cli.common import (
     JsonOption,
     LlmOption,
     NoCacheOption,
+    ObjectsOption,
     PrimitivesOption,
     PromptVersionOption,
     SamplesOption,
     SkillsOption,
     WorldOption,
     _declare,
+    _declare_objects,
     _generator,
     _library,
     _require_demonstrations,
@@ -71,10 +73,12 @@ def conditions(
         typer.Option("--skills", help="Skill library for --ground (default: the user cache's)."),
     ] = None,
     primitives: PrimitivesOption = None,
+    objects: ObjectsOption = None,
 ) -> None:
     """Generate the task condition of TASK with the LLM (paper §III-B/C) and print it; with --ground, checked
     against the demonstration of its primitive (beyond the paper)."""
     _declare(primitives)
+    _declare_objects(objects)
     try:
         if grammar not in ("fallback", "always", "never"):
             fail(f"--grammar {grammar!r}: use fallback, always or never")

@@ -20,6 +20,7 @@ from taskcond.cli.common import (
     JsonOption,
     LlmOption,
     NoiseOption,
+    ObjectsOption,
     PlannerOption,
     RayAddressOption,
     SkillsOption,
@@ -28,6 +29,7 @@ from taskcond.cli.common import (
     WorldOption,
     _check_start,
     _crashed,
+    _declare_objects,
     _library,
     _sim_import,
     fail,
@@ -310,12 +312,15 @@ def eval_command(kind: str):
         world: WorldOption = "kitchen",
         rerun: cli_viz.RerunEvalOption = None,
         rerun_all: cli_viz.RerunAllOption = False,
+        objects: ObjectsOption = None,
     ) -> None:
         if robosuite.check_world(world):
             return robosuite.evaluate(
                 kind, episodes, method, as_json, out, task, seed, noise, llm, skills, planner, start
             )
         _check_start(start)
+        _sim_import()
+        _declare_objects(objects)
         settings = ExecutionSettings(
             workers,
             noise,
@@ -377,11 +382,13 @@ def eval_instructions(
     ray_address: RayAddressOption = None,
     rerun: cli_viz.RerunEvalOption = None,
     rerun_all: cli_viz.RerunAllOption = False,
+    objects: ObjectsOption = None,
 ) -> None:
     """Free instructions from random starts (beyond the paper): each decomposed by the LLM (cached) as in
     `taskcond run`, run per method, judged by its shipped goal predicates (ground truth); the record also
     says whether the goal the plan itself implies held."""
     _sim_import()
+    _declare_objects(objects)
     from taskcond.application.evaluate import jobs_for, summarize
     from taskcond.application.plans import instruction_scene
     from taskcond.execution.executor import METHODS

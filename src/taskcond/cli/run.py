@@ -15,12 +15,14 @@ from taskcond.cli.common import (
     LlmOption,
     MethodOption,
     NoiseOption,
+    ObjectsOption,
     PlannerOption,
     PrimitivesOption,
     SkillsOption,
     StartOption,
     WorldOption,
     _declare,
+    _declare_objects,
     _library,
     _sim_import,
     fail,
@@ -61,6 +63,7 @@ def run(
     planner: PlannerOption = "conditions",
     start: StartOption = "task",
     primitives: PrimitivesOption = None,
+    objects: ObjectsOption = None,
     world: WorldOption = "kitchen",
 ) -> None:
     """Perform a long-horizon task: conditions, the look-ahead planner, Alg. 1 pre-condition satisfaction,
@@ -74,6 +77,7 @@ def run(
         return robosuite.run(spec, method, seed, shot, trace, noise, llm, skills, planner, start)
     _sim_import()
     _declare(primitives)
+    _declare_objects(objects)
     from taskcond.application.condition_sources import make_source
     from taskcond.application.episode import PLANNERS, run_episode
     from taskcond.application.evaluate import execution_config

@@ -14,9 +14,11 @@ import typer
 import taskcond.cli.robosuite as robosuite
 from taskcond.cli.common import (
     JsonOption,
+    ObjectsOption,
     PrimitivesOption,
     WorldOption,
     _declare,
+    _declare_objects,
     _default_library_dir,
     _library,
     _sim_import,
@@ -90,6 +92,7 @@ def learn(
         ),
     ] = None,
     primitives: PrimitivesOption = None,
+    objects: ObjectsOption = None,
     method: Annotated[
         str,
         typer.Option(
@@ -110,6 +113,7 @@ def learn(
         return robosuite.learn(out, task, seed)
     _sim_import()
     _declare(primitives)
+    _declare_objects(objects)
     if method not in ("dmp", "image-il"):
         fail(f"--method {method!r}: use dmp or image-il")
     if method == "image-il":

@@ -24,10 +24,13 @@ from taskcond.execution.events import EventLog
 from taskcond.execution.failures import ExecutionError, FailureKind
 from taskcond.execution.observer import ExecutionObserver, planned_path
 from taskcond.execution.skills import (
+    Choice,
+    ObjectShape,
     Segment,
     Skill,
     SkillError,
     SkillLibrary,
+    offset_scale,
     target_object,
     turned,
 )
@@ -71,13 +74,20 @@ class Aim:
         target: (3,) the target's perceived centre, m, world frame; None without a target.
         turn: rad about the world's vertical through the target's centre by which the skill's
             demonstration is turned (:meth:`Approach._turn`); 0 as demonstrated.
-        aside: (3,) m the goal is moved horizontally from the demonstrated spot on top of the target
-            (:meth:`Approach._aside`), already added to ``target``; zero as demonstrated.
+        aside: (3,) m the goal is moved from the demonstrated spot (:meth:`Approach._aside`: horizontally
+            on top of a crowded target, up onto its top; :func:`carry_shift`: up or down for a carried
+            object held at another height or a target of another height than demonstrated), already added
+            to ``target``; zero as demonstrated.
         approach: (3,) m, world frame: where the hand goes before the skill runs, the skill's
             demonstrated start relative to the target (:meth:`Approach._transit`); None to start where it
             is.
         over: least height (m, world z) of the hand on its way to ``approach`` when it carries an object
             (:func:`_carry_height`); None for an empty hand.
+        scale: (3,) factors on the target-anchored piece's demonstrated offset per world axis
+            (:func:`~taskcond.execution.skills.offset_scale`): a grasp borrowed from an object of another
+            size closes at the same place relative to the perceived box; ones as demonstrated.
+        choice: why this skill (:attr:`~taskcond.execution.skills.Choice.reason`); empty when it was
+            demonstrated on the task's own objects.
     """
 
     task: str
@@ -88,6 +98,8 @@ class Aim:
     aside: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(3))
     approach: np.ndarray | None = None
     over: float | None = None
+    scale: np.ndarray = dataclasses.field(default_factory=lambda: np.ones(3))
+    choice: str = ""
 
     @property
     def arms(self) -> int:
@@ -214,16 +226,7 @@ class Approach:
                 FailureKind.FALLEN,
             )
         here, here_q = self.world.ee_pose()
-        try:
-            skill = self.library.lookup(task, here - target if target is not None else here, here_q)
-        except SkillError as exc:
-            raise ExecutionError(str(exc), FailureKind.NO_SKILL) from None
-        if skill.arms > len(self.world.arms):
-            raise ExecutionError(
-                f"skill {skill.task_id} of {task!r} moves {skill.arms} arms; this robot has "
-                f"{len(self.world.arms)}",
-                FailureKind.NO_SKILL,
-            )
+        choice, skill = self._choose(task, obs, here - target if target is not None else here, here_q)
         carry = parsed.primitive.approach is HandApproach.CARRY and obs.grasped() == parsed.objects[0]
         far = (
             ((parsed.primitive.approach is HandApproach.EMPTY_HAND and not retry) or carry)
@@ -231,20 +234,45 @@ class Approach:
             and self._far(task, skill, here - target)
         )
         if far and not carry:
-            skill = max(self.library.candidates(task), key=lambda s: float(s.start_offset[2]))
+            skill = max(choice.skills, key=lambda s: float(s.start_offset[2]))
+        scale = _empty_hand_scale(task, skill, obs)
         turn = 0.0
         if grasp and target is not None and target_name in obs.round and skill.segments[0].anchor == "target":
-            turn = self._turn(skill, target_name, target, obs, far)
+            turn = self._turn(skill, target_name, target, obs, far, scale)
         aside = np.zeros(3)
+        if carry and target is not None and target_name is not None:
+            aside = carry_shift(task, skill, obs, here)
         if parsed.primitive.places is Relation.ABOVE and target is not None and target_name is not None:
-            aside = self._aside(skill, target_name, target, obs)
+            aside = aside + self._aside(skill, target_name, target + aside, obs)
         approach = target + aside + turned(skill.start_offset, turn) if far and target is not None else None
         over = None
         if carry and approach is not None:
             over = _carry_height(parsed.objects[0], here, approach, obs, self.world.arms)
-        return Aim(
-            task, skill, target_name, None if target is None else target + aside, turn, aside, approach, over
-        )
+        aimed = None if target is None else target + aside
+        return Aim(task, skill, target_name, aimed, turn, aside, approach, over, scale, choice.reason)
+
+    def _choose(
+        self, task: str, obs: Observation, offset: np.ndarray, orientation: np.ndarray
+    ) -> tuple[Choice, Skill]:
+        """The skills for ``task`` on the objects as perceived in ``obs`` (those demonstrated on the most
+        similar objects, :meth:`~taskcond.execution.skills.SkillLibrary.choose`) and of them the one
+        demonstrated from nearest the hand's ``offset`` (3,) m and ``orientation`` (4,) xyzw.
+
+        Raises:
+            ExecutionError: no skill of the primitive, or it needs more arms than the robot has.
+        """
+        try:
+            choice = self.library.choose(task, perceived_shapes(obs, parse_task(task).objects))
+        except SkillError as exc:
+            raise ExecutionError(str(exc), FailureKind.NO_SKILL) from None
+        skill = self.library.nearest(choice.skills, offset, orientation)
+        if skill.arms > len(self.world.arms):
+            raise ExecutionError(
+                f"skill {skill.task_id} of {task!r} moves {skill.arms} arms; this robot has "
+                f"{len(self.world.arms)}",
+                FailureKind.NO_SKILL,
+            )
+        return choice, skill
 
     def _far(self, task: str, skill: Skill, offset: np.ndarray) -> bool:
         """Whether the hand, at ``offset`` (3,) m from the target, is farther than
@@ -349,7 +377,15 @@ class Approach:
         return np.array([0.0, 0.0, lift])
 
     # long: one search over the hand's sides; its two closures share the sampled way
-    def _turn(self, skill: Skill, target_name: str, target: np.ndarray, obs: Observation, far: bool) -> float:
+    def _turn(
+        self,
+        skill: Skill,
+        target_name: str,
+        target: np.ndarray,
+        obs: Observation,
+        far: bool,
+        scale: np.ndarray | None = None,
+    ) -> float:
         """The side a grasp of the round object ``target_name`` (centre ``target`` (3,) m) comes from: the
         demonstration turned by 0, ±π/2 or π rad about the object's vertical axis (a round object is held
         the same from every side). The hand's way there is what the skill's pieces with the gripper still
@@ -395,7 +431,7 @@ class Approach:
                 points.append(path[::TRANSIT_EVERY])
                 quats.append(self._transit_orientations(here_q, quat, len(path))[::TRANSIT_EVERY])
             for seg in opened:
-                goal = seg.goal(point, target, turn)
+                goal = seg.goal(point, target, turn, scale)
                 points.append(
                     rollout(_conditioned(seg, point, goal), point, goal, n_steps=WAY_SAMPLES).positions
                 )
@@ -503,3 +539,51 @@ def _support_below(obj: str, obs: Observation, arms: Sequence[str]) -> float | N
         and np.all(hi[:2] > middle - half)
     ]
     return max(tops, default=None)
+
+
+def _empty_hand_scale(task: str, skill: Skill, obs: Observation) -> np.ndarray:
+    """(3,) factors on the demonstrated offset of an empty-hand primitive (a grasp) borrowed from another
+    target object (:func:`~taskcond.execution.skills.offset_scale` of the perceived and the demonstrated
+    boxes); ones for its own demonstration and for the other primitives."""
+    parsed = parse_task(task)
+    role = parsed.primitive.target
+    if parsed.primitive.approach is not HandApproach.EMPTY_HAND or role is None or role < 0:
+        return np.ones(3)
+    target, demo = parsed.objects[role], parse_task(skill.task_name).objects[role]
+    if target == demo:
+        return np.ones(3)
+    return offset_scale(perceived_shapes(obs, (target,)).get(target), skill.shapes.get(demo))
+
+
+def perceived_shapes(obs: Observation, names: Sequence[str]) -> dict[str, ObjectShape]:
+    """The shape class (``fixed`` for what is not a free object) and perceived box size of each of ``names``
+    that ``obs`` has a box of: what :meth:`~taskcond.execution.skills.SkillLibrary.choose` compares."""
+    return {
+        name: ObjectShape(obs.shapes.get(name, "fixed"), tuple(float(v) for v in hi - lo))  # type: ignore[arg-type]
+        for name in names
+        if name in obs.boxes
+        for lo, hi in (obs.boxes[name],)
+    }
+
+
+def carry_shift(task: str, skill: Skill, obs: Observation, hand: np.ndarray) -> np.ndarray:
+    """(3,) m by which a carry borrowed from other objects moves its goal (issue 31: the place above the
+    target scaled from the perceived boxes), zero for the demonstrated objects: up by how much higher the
+    hand holds the carried object above its bottom than the demonstration's hand held its object
+    (:attr:`~taskcond.execution.skills.Skill.hold_depth`; ``hand`` (3,) m, the hand now), so that the
+    object's bottom arrives at the demonstrated height; and for a target of another height than the
+    demonstrated one (both standing on the same floor, the goal measured from the centre), up by half the
+    difference of heights on top of or into it, down by it in front of it, where the object stays on the
+    floor."""
+    shift = np.zeros(3)
+    parsed, demo = parse_task(task), parse_task(skill.task_name).objects
+    primitive, objects = parsed.primitive.id, parsed.objects
+    carried, target = objects[0], objects[-1]
+    if carried != demo[0] and carried in obs.boxes and skill.hold_depth is not None:
+        shift[2] += float(hand[2] - obs.boxes[carried][0][2]) - skill.hold_depth
+    shapes = perceived_shapes(obs, (target,))
+    theirs = skill.shapes.get(demo[-1])
+    if len(objects) == 2 and target != demo[-1] and target in shapes and theirs is not None:
+        half = (shapes[target].height - theirs.height) / 2
+        shift[2] += -half if primitive == "move_in_front" else half
+    return shift

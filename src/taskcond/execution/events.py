@@ -176,23 +176,31 @@ class EventLog:
         turn: float = 0.0,
         aside: np.ndarray | None = None,
         approach: np.ndarray | None = None,
+        choice: str = "",
+        scale: np.ndarray | None = None,
     ) -> None:
         """``turn``: rad the demonstration is turned about the target's vertical axis (a grasp from
         another side); ``aside``: (3,) m the place was moved from the demonstrated spot; each reported only
         when not 0; ``approach``: (3,) m, world frame, where the hand went first (the demonstrated start),
-        or None."""
+        or None; ``choice``: why the skill was demonstrated on other objects (empty: on these);
+        ``scale``: (3,) factors on its demonstrated offset from the target (reported when not ones)."""
         degrees = round(math.degrees(turn))
         moved = aside is not None and bool(np.any(aside))
+        scaled = scale is not None and not np.allclose(scale, 1.0)
         self.emit(
             EventKind.PRIMITIVE,
             task,
             depth,
             f"{task}: skill {skill.task_id} ({len(skill.segments)} DMP pieces)"
+            + (f" [{choice}]" if choice else "")
+            + (f", offset scaled by {fmt_vector(scale)} to the perceived box" if scaled else "")
             + (f", goal from {target_name} at {fmt_vector(target)}" if target is not None else "")
             + (f", turned {degrees:+d}° about it (a neighbour is in the way)" if degrees else "")
             + (f", {fmt_vector(aside)} aside of the demonstrated spot (taken)" if moved else "")
             + (f", from its demonstrated start at {fmt_vector(approach)}" if approach is not None else ""),
             {"skill": skill.task_id, "target": target_name, "target_center": json_vector(target)}
+            | ({"demonstration": skill.task_name, "similar": choice} if choice else {})
+            | ({"offset_scale": json_vector(scale)} if scaled else {})
             | ({"turn_degrees": degrees} if degrees else {})
             | ({"aside": json_vector(aside)} if moved else {})
             | ({"approach": json_vector(approach)} if approach is not None else {}),

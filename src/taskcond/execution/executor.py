@@ -319,7 +319,16 @@ class Executor(Approach):
         aim = self._aim(task, obs, retry)
         monitor = None if cond is None else CollisionMonitor.start(cond, obs, self.world.arms[: aim.arms])
         self.log.primitive(
-            task, depth, aim.skill, aim.target_name, aim.target, aim.turn, aim.aside, aim.approach
+            task,
+            depth,
+            aim.skill,
+            aim.target_name,
+            aim.target,
+            aim.turn,
+            aim.aside,
+            aim.approach,
+            aim.choice,
+            aim.scale,
         )
         if aim.approach is not None:
             first = aim.skill.segments[0]
@@ -352,7 +361,7 @@ class Executor(Approach):
             ExecutionError: the piece's goal is out of reach, or the simulation fails.
         """
         start, start_q = self.world.ee_pose(aim.arms)
-        goal = seg.goal(start, aim.target, aim.turn)
+        goal = seg.goal(start, aim.target, aim.turn, aim.scale)
         reason = self.world.reach_error(goal)
         if reason is not None:
             raise ExecutionError(

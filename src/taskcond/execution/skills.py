@@ -31,6 +31,7 @@ from __future__ import annotations
 
 import itertools
 import json
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from functools import cached_property
 from pathlib import Path
@@ -44,7 +45,7 @@ from taskcond.dmp import DMPParameters, learn_dmp, load_parameters, save_paramet
 from taskcond.grounding import DemoEvidence
 from taskcond.primitives import parse_task
 
-LIBRARY_FORMAT = 3
+LIBRARY_FORMAT = 4
 """Version of the on-disk skill library layout; a library with another version is refused (the formats'
 history is in BENCHMARKS.md, "Formats and revisions")."""
 STANDSTILL = 0.01
@@ -56,6 +57,56 @@ Anchor = Literal["target", "relative"]
 
 class SkillError(ValueError):
     """A skill library that is missing, of another format version, or lacks a skill; one line."""
+
+
+@dataclass(frozen=True)
+class ObjectShape:
+    """What the similarity of two objects compares (:func:`dissimilarity`): the shape class (a free object's
+    :func:`~taskcond.sim.assets.shape_class`, ``fixed`` for the furniture and containers that do not move)
+    and the perceived bounding box's edge lengths ``size`` (x, y, z world axes, metres)."""
+
+    shape: str
+    size: tuple[float, float, float]
+
+    @property
+    def height(self) -> float:
+        return self.size[2]
+
+    @property
+    def width(self) -> float:
+        """Mean horizontal edge (m) of the box."""
+        return (self.size[0] + self.size[1]) / 2
+
+
+SHAPE_PENALTY = 2.0
+"""What a different shape class adds to :func:`dissimilarity`: as much as a size ratio of e² (7.4). A grasp
+is the shape's before it is the size's: with 1.0, noisy boxes (σ = 5 mm on a 4 cm cube) gave the cube the
+bowl's wall grasp instead of the toothpaste's (BENCHMARKS.md, "Objects a user brings")."""
+NEAR_CLASSES = (frozenset({"cylinder", "sphere"}), frozenset({"mesh", "cylinder", "box", "sphere"}))
+"""Pairs of shape classes within one of these sets are half as unlike: two round solids (held from any
+side), or a ``mesh`` (its class says nothing of its shape) and a solid. A vessel (held by its wall) and a
+flat object (held lying) are unlike everything else."""
+
+
+def dissimilarity(a: ObjectShape, b: ObjectShape) -> float:
+    """How unlike two objects are for one to borrow the other's skill (issue 31: "the most similar
+    demonstrated object by shape and size"): the sum of ``|ln(ratio)|`` of their heights and of their two
+    horizontal box edges (each pair sorted, so that an object turned about the vertical compares the
+    same), plus :data:`SHAPE_PENALTY` when their shape classes differ, half of it for the near classes of
+    :data:`NEAR_CLASSES`, twice it when either is ``fixed`` (two pieces of furniture or fixed containers
+    of different names: a goal demonstrated in front of the microwave is not one in front of the box, so
+    a carry borrows the carried object before the target). 0 for equal shape and size; larger is less
+    alike. With the suite's boxes: the can (a cylinder 0.10 m tall) against the bottle (0.13 m) 0.25,
+    against the toothpaste (a box) 3.0, against the bowl (a vessel) 3.0."""
+    edges = zip(sorted(a.size[:2]), sorted(b.size[:2]), strict=True)
+    size = abs(np.log(max(a.height, 1e-3) / max(b.height, 1e-3)))
+    size += sum(abs(np.log(max(x, 1e-3) / max(y, 1e-3))) for x, y in edges)
+    if "fixed" in (a.shape, b.shape):  # furniture is told apart by name: an offset from another's centre
+        return float(size + 2 * SHAPE_PENALTY)  # lands elsewhere (the box's front is not the microwave's)
+    if a.shape == b.shape:
+        return float(size)
+    near = any({a.shape, b.shape} <= group for group in NEAR_CLASSES)
+    return float(size + SHAPE_PENALTY * (0.5 if near else 1.0))
 
 
 @dataclass(frozen=True, eq=False)
@@ -74,6 +125,9 @@ class Demonstration:
         target_contact: index of the first sample at which the gripper touched the target, or -1.
         condition: the task condition derived from the environment (FromEnv), or None.
         evidence: the environment information at the start and end and the contacts during it, or None.
+        shapes: each task object's shape class and perceived box at the start (:class:`ObjectShape`).
+        hold_depth: height (m) of the hand above the bottom of the object it holds at the start (a carry),
+            or None.
     """
 
     task_name: str
@@ -87,6 +141,8 @@ class Demonstration:
     target_contact: int = -1
     condition: TaskCondition | None = None
     evidence: DemoEvidence | None = None
+    shapes: dict[str, ObjectShape] = field(default_factory=dict)
+    hold_depth: float | None = None
 
 
 @dataclass(frozen=True, eq=False)
@@ -119,15 +175,23 @@ class Segment:
         """Number of arms k the piece moves."""
         return self.dmp.n_dims // 3
 
-    def goal(self, start: np.ndarray, target_center: np.ndarray | None, turn: float = 0.0) -> np.ndarray:
+    def goal(
+        self,
+        start: np.ndarray,
+        target_center: np.ndarray | None,
+        turn: float = 0.0,
+        scale: np.ndarray | None = None,
+    ) -> np.ndarray:
         """Goal (3k,) of the piece started at ``start`` (3k,); the target's centre (3,) plus each arm's
         offset for target anchors (Alg. 2, line 3); without one, the demonstrated displacement. ``turn``
         (rad) turns the demonstration about the world's vertical through the target's centre: the offset,
         and a relative piece's displacement, are turned by it (a grasp from another side of a round
-        object, :meth:`taskcond.execution.executor.Executor._turn`)."""
+        object, :meth:`taskcond.execution.executor.Executor._turn`). ``scale`` (3,) multiplies the offset
+        per world axis first (a skill borrowed from an object of another size, :func:`offset_scale`)."""
         start = np.asarray(start, float)
         if self.anchor == "target" and target_center is not None:
-            return np.tile(np.asarray(target_center, float), self.arms) + turned(self.offset, turn)
+            offset = self.offset if scale is None else self.offset * np.tile(scale, self.arms)
+            return np.tile(np.asarray(target_center, float), self.arms) + turned(offset, turn)
         return start + turned(self.dmp.goal - self.dmp.y0, turn)
 
     @cached_property
@@ -204,6 +268,8 @@ class Skill:
         segments: the DMP pieces in order.
         condition: the FromEnv task condition of the demonstration, or None.
         evidence: what the demonstration showed at its start and end (:class:`DemoEvidence`), or None.
+        shapes: the demonstrated objects' shape classes and boxes (:attr:`Demonstration.shapes`).
+        hold_depth: the hand's height above the held object's bottom at the start of a carry, m, or None.
     """
 
     task_name: str
@@ -212,6 +278,8 @@ class Skill:
     segments: tuple[Segment, ...]
     condition: TaskCondition | None = None
     evidence: DemoEvidence | None = None
+    shapes: dict[str, ObjectShape] = field(default_factory=dict)
+    hold_depth: float | None = None
 
     @property
     def duration(self) -> float:
@@ -302,7 +370,56 @@ def learn_skill(demo: Demonstration) -> Skill:
         segments=tuple(segments),
         condition=demo.condition,
         evidence=demo.evidence,
+        shapes=dict(demo.shapes),
+        hold_depth=demo.hold_depth,
     )
+
+
+UNKNOWN_SHAPE = 2 * SHAPE_PENALTY
+""":func:`dissimilarity` assumed for an object whose shape is not known (unperceived, or a skill of an
+older library): worse than any known object of the same class."""
+
+
+@dataclass(frozen=True)
+class Choice:
+    """The skills a primitive task runs with (:meth:`SkillLibrary.choose`) and why.
+
+    Attributes:
+        skills: the candidates, all demonstrated on the same objects (the nearest start picks one).
+        borrowed: task object → (the demonstrated object standing in for it, its :func:`dissimilarity`),
+            for each task object that is not the demonstrated one.
+    """
+
+    skills: list[Skill]
+    borrowed: dict[str, tuple[str, float]]
+
+    @property
+    def reason(self) -> str:
+        """Why these skills: empty when demonstrated on the task's own objects."""
+        return "; ".join(
+            f"{demo} stands in for {obj} (most similar in shape and size demonstrated: {score:.2f})"
+            for obj, (demo, score) in self.borrowed.items()
+        )
+
+
+SCALE_DEADBAND = 0.15
+"""Ratios of perceived to demonstrated box edges within this fraction of 1 count as 1 in
+:func:`offset_scale`: with the default perception noise (σ = 5 mm on each corner coordinate) a 6.6 cm edge
+is perceived within ±11 % (1σ), and a grasp should not wander with the noise."""
+
+
+def offset_scale(task_target: ObjectShape | None, demo_target: ObjectShape | None) -> np.ndarray:
+    """Per world axis (3,), the factor on a grasp's demonstrated offset from the target's centre when the
+    skill was demonstrated on another object (issue 31: grasp height and width scaled from the perceived
+    box): the ratio of the perceived to the demonstrated box's mean horizontal edge for x and y (where the
+    fingers close on a wall), of their heights for z (how high on the object the hand closes), each
+    clipped to [1/4, 4] and 1 within :data:`SCALE_DEADBAND` of it; ones when either shape is unknown."""
+    if task_target is None or demo_target is None:
+        return np.ones(3)
+    xy = task_target.width / max(demo_target.width, 1e-3)
+    z = task_target.height / max(demo_target.height, 1e-3)
+    ratios = np.clip(np.array([xy, xy, z]), 0.25, 4.0)
+    return np.where(np.abs(ratios - 1.0) <= SCALE_DEADBAND, 1.0, ratios)
 
 
 @dataclass
@@ -322,38 +439,69 @@ class SkillLibrary:
     def __len__(self) -> int:
         return len(self.skills)
 
-    def candidates(self, task_name: str) -> list[Skill]:
-        """The skills that can run a primitive task name: those demonstrated on the same objects, else of
-        the same primitive on the same target, else of the same primitive.
+    def candidates(self, task_name: str, shapes: Mapping[str, ObjectShape] | None = None) -> list[Skill]:
+        """The skills that can run a primitive task name (:meth:`choose`)."""
+        return self.choose(task_name, shapes).skills
+
+    def choose(self, task_name: str, shapes: Mapping[str, ObjectShape] | None = None) -> Choice:
+        """The skills that can run a primitive task name: those demonstrated on the same objects, else those
+        of the same primitive demonstrated on the most similar objects: least summed :func:`dissimilarity`
+        of each task object (its shape in ``shapes``, perceived now) to the object demonstrated in its
+        place (0 for the same name; :data:`UNKNOWN_SHAPE` when either shape is unknown); a tie goes to the
+        library's order (the suite's registry order, primitive tasks before long-horizon steps).
 
         Raises:
             SkillError: no skill of that primitive.
         """
         task = parse_task(task_name)
         same = [s for s in self.skills.values() if s.primitive == task.primitive.id]
-        target = target_object(task.name)
-        found = [s for s in same if s.task_name == task.name] or [
-            s for s in same if target is not None and target_object(s.task_name) == target
-        ]
-        if not (found or same):
+        if not same:
             known = sorted({s.primitive for s in self.skills.values()})
             raise SkillError(
                 f"no skill for {task.name!r} ({task.primitive.id}); skills exist for: {', '.join(known)}"
             )
-        return found or same
+        exact = [s for s in same if s.task_name == task.name]
+        if exact:
+            return Choice(exact, {})
+        shapes = shapes or {}
+
+        def unlike(skill: Skill) -> dict[str, tuple[str, float]]:
+            demo = parse_task(skill.task_name).objects
+            out = {}
+            for obj, their in zip(task.objects, demo, strict=True):
+                if obj == their:
+                    continue
+                mine, theirs = shapes.get(obj), skill.shapes.get(their)
+                known = mine is not None and theirs is not None
+                out[obj] = (their, dissimilarity(mine, theirs) if known else UNKNOWN_SHAPE)  # type: ignore[arg-type]
+            return out
+
+        scores = [(sum(d for _, d in unlike(s).values()), k, s) for k, s in enumerate(same)]
+        best = min(scores, key=lambda t: (t[0], t[1]))[2]
+        return Choice([s for s in same if s.task_name == best.task_name], unlike(best))
 
     def lookup(
-        self, task_name: str, start: np.ndarray | None = None, orientation: np.ndarray | None = None
+        self,
+        task_name: str,
+        start: np.ndarray | None = None,
+        orientation: np.ndarray | None = None,
+        shapes: Mapping[str, ObjectShape] | None = None,
     ) -> Skill:
-        """The skill for a primitive task name: among its :meth:`candidates`, the one whose demonstration
-        started nearest to ``start`` (3,) — the first end effector's position relative to the target's
-        centre, or in the world frame for primitives without a target — and ``orientation`` (4,) xyzw; a
-        tenth of a radian counts as a centimetre.
+        """The skill for a primitive task name: among its :meth:`candidates` (``shapes``: the task objects'
+        perceived shapes), the one whose demonstration started nearest to ``start`` (3,) — the first end
+        effector's position relative to the target's centre, or in the world frame for primitives without
+        a target — and ``orientation`` (4,) xyzw; a tenth of a radian counts as a centimetre.
 
         Raises:
             SkillError: no skill of that primitive.
         """
-        candidates = self.candidates(task_name)
+        return self.nearest(self.candidates(task_name, shapes), start, orientation)
+
+    @staticmethod
+    def nearest(
+        candidates: list[Skill], start: np.ndarray | None = None, orientation: np.ndarray | None = None
+    ) -> Skill:
+        """Of ``candidates``, the one whose demonstration started nearest (see :meth:`lookup`)."""
         if start is None or len(candidates) == 1:
             return candidates[0]
 
@@ -393,6 +541,8 @@ class SkillLibrary:
                     "segments": pieces,
                     "condition": None if skill.condition is None else skill.condition.to_dict(),
                     "evidence": None if skill.evidence is None else skill.evidence.to_dict(),
+                    "shapes": {o: {"shape": v.shape, "size": list(v.size)} for o, v in skill.shapes.items()},
+                    "hold_depth": skill.hold_depth,
                 }
             )
         path = directory / "library.json"
@@ -444,6 +594,11 @@ class SkillLibrary:
                         segments=tuple(segments),
                         condition=None if cond is None else TaskCondition.from_dict(cond),
                         evidence=None if evidence is None else DemoEvidence.from_dict(evidence),
+                        shapes={
+                            o: ObjectShape(v["shape"], tuple(map(float, v["size"])))  # type: ignore[arg-type]
+                            for o, v in entry.get("shapes", {}).items()
+                        },
+                        hold_depth=entry.get("hold_depth"),
                     )
                 )
         except (KeyError, OSError, ValueError) as exc:
@@ -453,12 +608,16 @@ class SkillLibrary:
 
 __all__ = [
     "LIBRARY_FORMAT",
+    "Choice",
     "Demonstration",
+    "ObjectShape",
     "Segment",
     "Skill",
     "SkillError",
     "SkillLibrary",
+    "dissimilarity",
     "learn_skill",
+    "offset_scale",
     "split_points",
     "target_object",
     "turned",

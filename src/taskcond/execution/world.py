@@ -43,6 +43,8 @@ class Observation:
             a grasp of one may come from any side.
         lying: the free objects that fell over (their upright axis tilted more than 45°): a grasp
             demonstrated on an upright object cannot hold them.
+        shapes: free object → its shape class (``cylinder``, ``vessel``, ``box``, ``sphere``, ``flat``,
+            ``mesh``): what :func:`taskcond.execution.skills.dissimilarity` compares beside the boxes.
     """
 
     predicates: frozenset[Predicate]
@@ -51,6 +53,7 @@ class Observation:
     boxes: dict[str, tuple[np.ndarray, np.ndarray]] = field(default_factory=dict)
     round: frozenset[str] = frozenset()
     lying: frozenset[str] = frozenset()
+    shapes: dict[str, str] = field(default_factory=dict)
 
     def holds(self, predicate: Predicate) -> bool:
         return predicate in self.predicates

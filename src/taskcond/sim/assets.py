@@ -40,9 +40,10 @@ Vec3 = tuple[float, float, float]
 # --------------------------------------------------------------------------------------- URDF building
 @dataclass(frozen=True)
 class Shape:
-    """One primitive shape of a link: ``box`` (size = full extents x, y, z), ``cylinder`` (radius, length)."""
+    """One primitive shape of a link: ``box`` (size = full extents x, y, z), ``cylinder`` (radius, length),
+    ``sphere`` (radius)."""
 
-    kind: Literal["box", "cylinder"]
+    kind: Literal["box", "cylinder", "sphere"]
     size: tuple[float, ...]
     xyz: Vec3 = (0.0, 0.0, 0.0)
     rpy: Vec3 = (0.0, 0.0, 0.0)
@@ -52,11 +53,15 @@ class Shape:
         """Axis-aligned half extents in the shape's own frame."""
         if self.kind == "box":
             return (self.size[0] / 2, self.size[1] / 2, self.size[2] / 2)
+        if self.kind == "sphere":
+            return (self.size[0], self.size[0], self.size[0])
         return (self.size[0], self.size[0], self.size[1] / 2)
 
     def volume(self) -> float:
         if self.kind == "box":
             return self.size[0] * self.size[1] * self.size[2]
+        if self.kind == "sphere":
+            return 4 / 3 * math.pi * self.size[0] ** 3
         return math.pi * self.size[0] ** 2 * self.size[1]
 
 
@@ -141,6 +146,8 @@ def _fmt(v: tuple[float, ...]) -> str:
 def _geometry(shape: Shape) -> str:
     if shape.kind == "box":
         return f'<box size="{_fmt(shape.size)}"/>'
+    if shape.kind == "sphere":
+        return f'<sphere radius="{shape.size[0]:.6g}"/>'
     return f'<cylinder radius="{shape.size[0]:.6g}" length="{shape.size[1]:.6g}"/>'
 
 
@@ -572,6 +579,120 @@ class MicrowaveSpec:
 
 
 @dataclass(frozen=True)
+class SolidSpec:
+    """A declared object of one primitive shape standing on its bottom face (issue 31, "objects a user
+    brings"): ``shape`` ``box`` (``size`` = full extents x, y, z), ``cylinder`` (radius, height) or
+    ``sphere`` (radius); metres, ``mass`` kg, ``rgba`` in [0, 1]. Origin at the centre of the bottom."""
+
+    shape: Literal["box", "cylinder", "sphere"]
+    size: tuple[float, ...]
+    mass: float = 0.1
+    rgba: RGBA = (0.6, 0.6, 0.6, 1.0)
+
+    def links(self) -> list[Link]:
+        if self.shape == "box":
+            shape = Shape("box", self.size, (0, 0, self.size[2] / 2), rgba=self.rgba)
+        elif self.shape == "cylinder":
+            shape = Shape("cylinder", self.size, (0, 0, self.size[1] / 2), rgba=self.rgba)
+        else:
+            shape = Shape("sphere", self.size, (0, 0, self.size[0]), rgba=self.rgba)
+        return [Link("base", (shape,), self.mass)]
+
+
+@dataclass(frozen=True)
+class MeshSpec:
+    """A declared object from a file (issue 31): a URDF, loaded as it is scaled by ``scale``, or a Wavefront
+    ``.obj`` mesh wrapped in a one-link URDF (the mesh scaled by ``scale`` as visual and collision shape;
+    PyBullet takes a moving body's mesh as its convex hull), its inertia that of a solid box over the mesh's
+    bounds.
+
+    Attributes:
+        path: absolute path of the ``.urdf`` or ``.obj`` file.
+        scale: uniform scale of the file's geometry.
+        mass: kg; None keeps the URDF's (an ``.obj`` gets 0.1 kg).
+        rgba: colour in [0, 1]; None keeps the file's.
+        rpy: roll, pitch, yaw (rad) that stand the file's geometry upright (pybullet_data's duck is modelled
+            with y up: ``(pi/2, 0, 0)``); the scene turns the body by it and then by its yaw.
+
+    The body's frame need not be at the bottom of its geometry: the scene places a file object by its
+    bounding box (:meth:`taskcond.sim.scene.KitchenScene.place`).
+    """
+
+    path: str
+    scale: float = 1.0
+    mass: float | None = None
+    rgba: RGBA | None = None
+    rpy: Vec3 = (0.0, 0.0, 0.0)
+
+    @property
+    def is_urdf(self) -> bool:
+        return self.path.lower().endswith(".urdf")
+
+    def mesh_urdf(self, name: str) -> str:
+        """URDF text of a ``.obj`` mesh (see the class doc)."""
+        lo, hi = obj_bounds(self.path)
+        lo, hi = lo * self.scale, hi * self.scale
+        d = np.maximum(hi - lo, 1e-3)
+        m = 0.1 if self.mass is None else self.mass
+        com = _fmt(tuple((lo + hi) / 2))
+        inertia = (
+            m / 12 * (d[1] ** 2 + d[2] ** 2),
+            m / 12 * (d[0] ** 2 + d[2] ** 2),
+            m / 12 * (d[0] ** 2 + d[1] ** 2),
+        )
+        geometry = f'<mesh filename="{self.path}" scale="{_fmt((self.scale,) * 3)}"/>'
+        rgba = _fmt(self.rgba or (0.7, 0.7, 0.7, 1.0))
+        return (
+            f'<?xml version="1.0"?>\n<robot name="{name}">\n<link name="base">\n'
+            f'<inertial><origin xyz="{com}"/><mass value="{m:.6g}"/><inertia ixx="{inertia[0]:.6g}" '
+            f'iyy="{inertia[1]:.6g}" izz="{inertia[2]:.6g}" ixy="0" ixz="0" iyz="0"/></inertial>\n'
+            f'<visual><geometry>{geometry}</geometry><material name="m"><color rgba="{rgba}"/></material>'
+            f"</visual>\n<collision><geometry>{geometry}</geometry></collision>\n</link>\n</robot>\n"
+        )
+
+
+def obj_bounds(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
+    """Lower and upper corners (3,) of the vertices (``v x y z`` lines) of a Wavefront ``.obj`` file, in
+    its units.
+
+    Raises:
+        ValueError: the file has no vertex.
+    """
+    rows = [
+        [float(v) for v in line.split()[1:4]]
+        for line in Path(path).read_text(encoding="utf-8", errors="replace").splitlines()
+        if line.startswith("v ")
+    ]
+    if not rows:
+        raise ValueError(f"{path} has no vertices ('v x y z' lines)")
+    points = np.array(rows)
+    return points.min(axis=0), points.max(axis=0)
+
+
+ShapeClass = Literal["cylinder", "vessel", "box", "sphere", "flat", "mesh"]
+"""The shape class of a free object (:func:`shape_class`): what the similarity of a demonstrated and an
+undemonstrated object compares beside their sizes."""
+ROUND_CLASSES: tuple[ShapeClass, ...] = ("cylinder", "vessel", "sphere")
+"""Shape classes that look the same turned about their vertical axis: a grasp may come from any side."""
+
+
+def shape_class(spec: object) -> ShapeClass:
+    """The shape class of a free object's spec: a bottle or a can ``cylinder``, a bowl or mug ``vessel``,
+    a block ``box``, the spatula ``flat``, a declared solid its shape, a file object ``mesh``."""
+    if isinstance(spec, BottleSpec):
+        return "cylinder"
+    if isinstance(spec, VesselSpec):
+        return "vessel"
+    if isinstance(spec, BlockSpec):
+        return "box"
+    if isinstance(spec, SpatulaSpec):
+        return "flat"
+    if isinstance(spec, SolidSpec):
+        return spec.shape
+    return "mesh"
+
+
+@dataclass(frozen=True)
 class TableSpec:
     """The counter: a static slab whose top face is at world z = 0."""
 
@@ -584,7 +705,16 @@ class TableSpec:
 
 
 AssetSpec = (
-    BottleSpec | VesselSpec | BlockSpec | SpatulaSpec | BoxSpec | CabinetSpec | MicrowaveSpec | TableSpec
+    BottleSpec
+    | VesselSpec
+    | BlockSpec
+    | SpatulaSpec
+    | SolidSpec
+    | MeshSpec
+    | BoxSpec
+    | CabinetSpec
+    | MicrowaveSpec
+    | TableSpec
 )
 
 
@@ -599,7 +729,10 @@ def interiors_of(name: str, spec: AssetSpec) -> dict[str, Interior]:
 
 
 def build_asset(name: str, spec: AssetSpec) -> Asset:
-    """Write the URDF of ``spec`` (cached by content) and return it with its container interiors."""
+    """Write the URDF of ``spec`` (cached by content) and return it with its container interiors; a URDF
+    file object (:class:`MeshSpec`) is its own file."""
+    if isinstance(spec, MeshSpec):
+        return Asset(Path(spec.path) if spec.is_urdf else write_urdf(name, spec.mesh_urdf(name)))
     joints = spec.joints() if isinstance(spec, BoxSpec | CabinetSpec | MicrowaveSpec) else []
     path = write_urdf(name, urdf_text(name, spec.links(), joints))
     return Asset(path, interiors_of(name, spec))

@@ -2,10 +2,10 @@
 that closes it), surface, fixed, vessel, and its size, all derived from the specs that build the assets
 (:mod:`taskcond.sim.assets`) and from where :class:`~taskcond.sim.scene.SceneConfig` puts them.
 
-The one role table is :data:`SPEC_ROLES` (a spec type → its :class:`ObjectRoles`). A spec that carries its own
-``roles`` attribute (an :class:`ObjectRoles`, as a user's declared object will) is read from that instead,
-so that a declared object enters everything built on :func:`scene_roles` (the combination benchmark,
-:mod:`taskcond.combinations`) without a code change. Whether an object is free (moved by the arm) or fixed
+The roles are the scene config's (:attr:`~taskcond.sim.scene.SceneConfig.roles`: the suite's
+:data:`~taskcond.sim.scene.SUITE_ROLES` and each declared object's), so that a declared object enters
+everything built on :func:`scene_roles` (the combination benchmark, :mod:`taskcond.combinations`) without a
+code change. Whether an object is free (moved by the arm) or fixed
 (standing furniture something can be put in front of) is where the scene config puts it, not a role.
 
 Sizes are in metres, along the object's own x, y, z standing at yaw 0.
@@ -13,25 +13,24 @@ Sizes are in metres, along the object's own x, y, z standing at yaw 0.
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from dataclasses import dataclass
 from itertools import product
 
+import pybullet as p
 from scipy.spatial.transform import Rotation
 
 from taskcond.sim.assets import (
     AssetSpec,
-    BlockSpec,
-    BottleSpec,
     BoxSpec,
     CabinetSpec,
     Link,
+    MeshSpec,
     MicrowaveSpec,
-    SpatulaSpec,
-    TableSpec,
-    VesselSpec,
+    build_asset,
     interiors_of,
 )
-from taskcond.sim.scene import ARTICULATED, TABLE, SceneConfig
+from taskcond.sim.scene import ARTICULATED, ROLES, TABLE, SceneConfig
 
 Vec3 = tuple[float, float, float]
 
@@ -52,18 +51,11 @@ class ObjectRoles:
     surface: bool = False
     vessel: bool = False
 
-
-SPEC_ROLES: dict[type, ObjectRoles] = {
-    BottleSpec: ObjectRoles(graspable=True, vessel=True),
-    VesselSpec: ObjectRoles(graspable=True, container=True, vessel=True),
-    BlockSpec: ObjectRoles(graspable=True),
-    SpatulaSpec: ObjectRoles(graspable=True),
-    BoxSpec: ObjectRoles(container=True, surface=True),
-    CabinetSpec: ObjectRoles(surface=True),
-    MicrowaveSpec: ObjectRoles(container=True, surface=True),
-    TableSpec: ObjectRoles(surface=True),
-}
-"""The role table: the roles of the suite's spec types (a spec's own ``roles`` attribute wins)."""
+    @classmethod
+    def of(cls, roles: Iterable[str]) -> ObjectRoles:
+        """The flags of a set of :data:`~taskcond.sim.scene.ROLES` names."""
+        names = set(roles)
+        return cls(*(r in names for r in ROLES))
 
 
 @dataclass(frozen=True)
@@ -96,16 +88,6 @@ class SceneObject:
         return self.part is not None
 
 
-def roles_of(spec: AssetSpec) -> ObjectRoles:
-    """``spec.roles`` when the spec declares it, else the roles of its type (:data:`SPEC_ROLES`).
-
-    Raises:
-        KeyError: a spec type of neither kind (name it in :data:`SPEC_ROLES`).
-    """
-    own = getattr(spec, "roles", None)
-    return own if isinstance(own, ObjectRoles) else SPEC_ROLES[type(spec)]
-
-
 def link_extents(link: Link) -> Vec3:
     """Extents (m) of the axis-aligned box around a link's shapes, in the link's frame."""
     lo, hi = [float("inf")] * 3, [float("-inf")] * 3
@@ -117,6 +99,28 @@ def link_extents(link: Link) -> Vec3:
                 lo[k] = min(lo[k], shape.xyz[k] + corner[k])
                 hi[k] = max(hi[k], shape.xyz[k] + corner[k])
     return (float(hi[0] - lo[0]), float(hi[1] - lo[1]), float(hi[2] - lo[2]))
+
+
+def file_extents(name: str, spec: MeshSpec) -> Vec3:
+    """Extents (m) of a file object (:class:`~taskcond.sim.assets.MeshSpec`) standing upright, as the scene
+    loads it (scaled, turned by its ``rpy``): the box PyBullet puts around it in a client of its own."""
+    client = p.connect(p.DIRECT)
+    try:
+        body = p.loadURDF(
+            str(build_asset(name.replace(" ", "_"), spec).path),
+            baseOrientation=p.getQuaternionFromEuler(spec.rpy),
+            globalScaling=spec.scale if spec.is_urdf else 1.0,
+            physicsClientId=client,
+        )
+        boxes = [
+            p.getAABB(body, link, physicsClientId=client)
+            for link in range(-1, p.getNumJoints(body, physicsClientId=client))
+        ]
+    finally:
+        p.disconnect(client)
+    lo = [min(b[0][k] for b in boxes) for k in range(3)]
+    hi = [max(b[1][k] for b in boxes) for k in range(3)]
+    return (hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2])
 
 
 def _part(spec: AssetSpec) -> str | None:
@@ -139,13 +143,13 @@ def scene_roles(config: SceneConfig | None = None) -> dict[str, SceneObject]:
     out: dict[str, SceneObject] = {}
     for name, spec in [*fixed.items(), *((n, s) for n, (s, _) in cfg.free_objects.items())]:
         free = name in cfg.free_objects
-        roles = roles_of(spec)
+        roles = ObjectRoles.of(cfg.roles.get(name, ()))
         inner = interiors_of(name.replace(" ", "_"), spec).get(name.replace(" ", "_"))
         out[name] = SceneObject(
             name,
             roles,
             free,
-            link_extents(spec.links()[0]),
+            file_extents(name, spec) if isinstance(spec, MeshSpec) else link_extents(spec.links()[0]),
             None if inner is None or not roles.container else _inside(inner.half_extents),
             bool(inner and inner.round),
             _part(spec),
@@ -155,7 +159,7 @@ def scene_roles(config: SceneConfig | None = None) -> dict[str, SceneObject]:
             for drawer, inside in spec.interiors().items():
                 out[drawer] = SceneObject(
                     drawer,
-                    ObjectRoles(container=True),
+                    ObjectRoles.of(cfg.roles.get(drawer, ())),
                     False,
                     spec.drawer_size,
                     _inside(inside.half_extents),
@@ -173,4 +177,4 @@ def _inside(half: Vec3) -> Vec3:
     return (2 * half[0], 2 * half[1], 2 * half[2])
 
 
-__all__ = ["SPEC_ROLES", "ObjectRoles", "SceneObject", "link_extents", "roles_of", "scene_roles"]
+__all__ = ["ObjectRoles", "SceneObject", "file_extents", "link_extents", "scene_roles"]

@@ -16,6 +16,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 from itertools import chain
 from operator import itemgetter
+from typing import Literal
 
 import numpy as np
 import pybullet as p
@@ -28,6 +29,7 @@ from taskcond.sim.assets import (
     BoxSpec,
     CabinetSpec,
     Interior,
+    MeshSpec,
     MicrowaveSpec,
     SpatulaSpec,
     TableSpec,
@@ -60,11 +62,108 @@ class Placement:
     yaw: float = 0.0
 
 
+Role = Literal["graspable", "container", "surface", "vessel"]
+ROLES: tuple[Role, ...] = ("graspable", "container", "surface", "vessel")
+"""What an object of the scene affords beside its name: the hand can grasp it (and carry it, as every free
+object), it has an interior things go into, things can be put on top of it, or it holds a liquid and can be
+tilted to pour. An object that is not free (:attr:`SceneConfig.free_objects`) is fixed: things can be put in
+front of it."""
+SUITE_ROLES: dict[str, frozenset[Role]] = {
+    "table": frozenset({"surface"}),
+    "cabinet": frozenset({"surface"}),
+    "top drawer": frozenset({"container"}),
+    "bottom drawer": frozenset({"container"}),
+    "box": frozenset({"container", "surface"}),
+    "microwave": frozenset({"container", "surface"}),
+    "bottle": frozenset({"graspable", "vessel"}),
+    "bowl": frozenset({"graspable", "container", "vessel"}),
+    "mug": frozenset({"graspable", "container", "vessel"}),
+    "toothpaste": frozenset({"graspable"}),
+    "spatula": frozenset({"graspable"}),
+    "cube": frozenset({"graspable"}),
+    "can": frozenset({"graspable", "vessel"}),
+    "cloth": frozenset({"graspable", "surface"}),
+}
+"""The roles of the suite's objects (the cloth's in the dual-arm scene): the one role table, which a declared
+object joins with its own (:attr:`SceneConfig.roles`)."""
+
+
+@dataclass(frozen=True)
+class DeclaredObject:
+    """An object a user declared (``--objects``, :func:`taskcond.sim.objects.load_objects`), kept in the scene
+    exactly like the suite's objects: its spec and nominal placement join :attr:`SceneConfig.free_objects`,
+    its roles :attr:`SceneConfig.roles`, its aliases :func:`scene_aliases`.
+
+    Attributes:
+        name: canonical name (conditions, instructions).
+        aliases: other words for it.
+        spec: the asset (:class:`~taskcond.sim.assets.SolidSpec`, :class:`~taskcond.sim.assets.MeshSpec`,
+            or a suite spec kind: bottle, vessel, block).
+        placement: nominal pose of a task start.
+        roles: :data:`ROLES` it has.
+        source: the declaration file and entry it came from.
+    """
+
+    name: str
+    aliases: tuple[str, ...]
+    spec: AssetSpec
+    placement: Placement
+    roles: frozenset[Role]
+    source: str
+
+
+DECLARED: dict[str, DeclaredObject] = {}
+"""The declared objects of this process by name (:func:`taskcond.sim.objects.register_object`); every
+:class:`SceneConfig` made after a declaration has them."""
+
+
+def suite_objects() -> dict[str, tuple[AssetSpec, Placement]]:
+    """The suite's free objects: spec and nominal placement by name."""
+    return {
+        "bottle": (BottleSpec(), Placement((0.40, -0.02))),
+        "bowl": (VesselSpec(), Placement((0.42, 0.19))),
+        "mug": (
+            VesselSpec(outer_radius=0.04, height=0.09, handle=True, mass=0.3, rgba=(0.8, 0.25, 0.2, 1.0)),
+            Placement((0.34, -0.26)),
+        ),
+        "toothpaste": (BlockSpec(), Placement((0.30, 0.11))),
+        "spatula": (SpatulaSpec(), Placement((0.24, -0.07))),
+        "cube": (BlockSpec((0.04, 0.04, 0.04), 0.1, (0.85, 0.15, 0.15, 1.0)), Placement((0.22, 0.32))),
+        "can": (
+            BottleSpec(
+                radius=0.03,
+                height=0.09,
+                neck_radius=0.028,
+                neck_height=0.01,
+                mass=0.2,
+                rgba=(0.2, 0.3, 0.8, 1.0),
+            ),
+            Placement((0.20, -0.45)),
+        ),
+    }
+
+
+def _free_objects() -> dict[str, tuple[AssetSpec, Placement]]:
+    """The suite's free objects and then the declared ones (:data:`DECLARED`)."""
+    return suite_objects() | {d.name: (d.spec, d.placement) for d in DECLARED.values()}
+
+
+def _roles() -> dict[str, frozenset[Role]]:
+    return SUITE_ROLES | {d.name: d.roles for d in DECLARED.values()}
+
+
+def suite_config() -> SceneConfig:
+    """The kitchen with the suite's objects only, whatever is declared: the scene of the oracle
+    demonstrations the skill library learns from."""
+    return SceneConfig(free_objects=suite_objects(), roles=dict(SUITE_ROLES))
+
+
 @dataclass(frozen=True)
 class SceneConfig:
     """Every parameter of the kitchen. Replace a spec (``dataclasses.replace``) for a novel object.
 
-    ``free_objects`` maps a condition name to its spec and nominal placement; ``position_noise`` (m) and
+    ``free_objects`` maps a condition name to its spec and nominal placement (the suite's
+    :func:`suite_objects`, then the declared :data:`DECLARED`); ``position_noise`` (m) and
     ``yaw_noise`` (rad) are the half-widths of the uniform perturbation applied at each seeded reset.
     """
 
@@ -75,30 +174,9 @@ class SceneConfig:
     box_origin: tuple[float, float] = (0.58, -0.13)
     microwave: MicrowaveSpec = field(default_factory=MicrowaveSpec)
     microwave_origin: tuple[float, float] = (0.55, -0.56)
-    free_objects: dict[str, tuple[AssetSpec, Placement]] = field(
-        default_factory=lambda: {
-            "bottle": (BottleSpec(), Placement((0.40, -0.02))),
-            "bowl": (VesselSpec(), Placement((0.42, 0.19))),
-            "mug": (
-                VesselSpec(outer_radius=0.04, height=0.09, handle=True, mass=0.3, rgba=(0.8, 0.25, 0.2, 1.0)),
-                Placement((0.34, -0.26)),
-            ),
-            "toothpaste": (BlockSpec(), Placement((0.30, 0.11))),
-            "spatula": (SpatulaSpec(), Placement((0.24, -0.07))),
-            "cube": (BlockSpec((0.04, 0.04, 0.04), 0.1, (0.85, 0.15, 0.15, 1.0)), Placement((0.22, 0.32))),
-            "can": (
-                BottleSpec(
-                    radius=0.03,
-                    height=0.09,
-                    neck_radius=0.028,
-                    neck_height=0.01,
-                    mass=0.2,
-                    rgba=(0.2, 0.3, 0.8, 1.0),
-                ),
-                Placement((0.20, -0.45)),
-            ),
-        }
-    )
+    free_objects: dict[str, tuple[AssetSpec, Placement]] = field(default_factory=_free_objects)
+    roles: dict[str, frozenset[Role]] = field(default_factory=_roles)
+    """Every object's :data:`ROLES` by name (the suite's :data:`SUITE_ROLES` and the declared objects')."""
     position_noise: float = 0.02
     yaw_noise: float = 0.25
     kinova: bool = False
@@ -157,6 +235,11 @@ ALIASES = {
 LLM decomposes it: the embedded model took "the upper drawer" for the bottom drawer."""
 
 
+def scene_aliases() -> dict[str, str]:
+    """:data:`ALIASES` and the declared objects' aliases (:data:`DECLARED`)."""
+    return ALIASES | {alias: d.name for d in DECLARED.values() for alias in d.aliases}
+
+
 @dataclass(frozen=True)
 class WorldInterior:
     """A container's interior in the world frame: ``center`` (3,) m, ``half_extents`` (3,) m along the axes
@@ -204,6 +287,12 @@ class KitchenScene:
         self.interiors: dict[str, Interior] = {}
         self.joints: dict[str, ContainerJoint] = {}
         self.specs: dict[str, AssetSpec] = {}
+        self.upright: dict[str, tuple[float, float, float, float]] = {}
+        """Quaternion (xyzw) that stands a file object (:class:`MeshSpec`) upright; the others stand upright
+        unturned."""
+        self._bottom: dict[str, np.ndarray] = {}
+        """A file object's base-frame position (3,) m relative to the bottom centre of its bounding box,
+        standing upright at yaw 0."""
 
         self._load(TABLE, cfg.table, (*cfg.table.center, 0.0), fixed=True)
         self._load("cabinet", cfg.cabinet, (*cfg.cabinet_origin, 0.0), fixed=True)
@@ -249,6 +338,8 @@ class KitchenScene:
                 activationState=p.ACTIVATION_STATE_ENABLE_SLEEPING,
                 physicsClientId=self.client,
             )
+            if name in self.upright:  # a file object stands on the table by its bounding box
+                self.place(name, place.xy, place.yaw)
         self.robot = Franka(self.client)
         self.free_objects = tuple(cfg.free_objects)
         self.kinova: KinovaArm | None = None
@@ -343,24 +434,38 @@ class KitchenScene:
 
     def _load(self, name: str, spec: AssetSpec, position: tuple[float, float, float], fixed: bool) -> None:
         asset = build_asset(name.replace(" ", "_"), spec)
-        body = p.loadURDF(str(asset.path), position, useFixedBase=fixed, physicsClientId=self.client)
+        client = self.client
+        if not isinstance(spec, MeshSpec):
+            body = p.loadURDF(str(asset.path), position, useFixedBase=fixed, physicsClientId=client)
+        else:
+            self.upright[name] = p.getQuaternionFromEuler(spec.rpy)
+            body = p.loadURDF(
+                str(asset.path),
+                position,
+                self.upright[name],
+                useFixedBase=fixed,
+                globalScaling=spec.scale if spec.is_urdf else 1.0,
+                physicsClientId=client,
+            )
+            if spec.mass is not None:
+                p.changeDynamics(body, -1, mass=spec.mass, physicsClientId=client)
+            if spec.rgba is not None:
+                for link in range(-1, p.getNumJoints(body, physicsClientId=client)):
+                    p.changeVisualShape(body, link, rgbaColor=spec.rgba, physicsClientId=client)
         self.bodies[name] = body
         self.specs[name] = spec
+        if isinstance(spec, MeshSpec):
+            lo, hi = self.aabb(name)
+            self._bottom[name] = self.pose(name)[0] - np.array([*(lo[:2] + hi[:2]) / 2, lo[2]])
         for key, interior in asset.interiors.items():
             self.interiors[key.replace("_", " ")] = interior
 
     # ----------------------------------------------------------------------------------- description
     def description(self) -> SceneDescription:
         """The :class:`SceneDescription` read by the environment-information layer (§III-A.2)."""
-        kinds = {
-            TABLE: "furniture",
-            "cabinet": "furniture",
-            "box": "container",
-            "microwave": "container",
-            "top drawer": "container",
-            "bottom drawer": "container",
-            "bowl": "container",
-            "mug": "container",
+        roles = self.config.roles
+        kinds = {TABLE: "furniture", "cabinet": "furniture"} | {
+            name: "container" for name in self.bodies if "container" in roles.get(name, ())
         }
         bodies = [
             NamedBody(n, self.bodies[n], self.links.get(n, -1), kinds.get(n, "object"))  # type: ignore[arg-type]
@@ -474,11 +579,17 @@ class KitchenScene:
         p.resetJointState(j.body_id, j.joint_index, q, 0.0, physicsClientId=self.client)
 
     def place(self, name: str, xy: tuple[float, float] | np.ndarray, yaw: float, z: float = 0.0) -> None:
-        """Put a free object's bottom-centre frame at ``(x, y, z)`` with ``yaw``, at rest (reset only)."""
+        """Put a free object's bottom-centre frame at ``(x, y, z)`` with ``yaw``, upright, at rest (reset
+        only); a file object's by the bottom centre of its bounding box."""
         body = self.bodies[name]
         local = p.getDynamicsInfo(body, -1, physicsClientId=self.client)[3]
-        orn = p.getQuaternionFromEuler((0, 0, yaw))
-        pos, _ = p.multiplyTransforms((float(xy[0]), float(xy[1]), z + 0.0005), orn, local, (0, 0, 0, 1))
+        turn = p.getQuaternionFromEuler((0, 0, yaw))
+        base = np.array([float(xy[0]), float(xy[1]), z + 0.0005])
+        orn = turn
+        if name in self.upright:
+            orn = p.multiplyTransforms((0, 0, 0), turn, (0, 0, 0), self.upright[name])[1]
+            base = base + np.array(p.multiplyTransforms((0, 0, 0), turn, self._bottom[name], (0, 0, 0, 1))[0])
+        pos, _ = p.multiplyTransforms(base, orn, local, (0, 0, 0, 1))
         p.resetBasePositionAndOrientation(body, pos, orn, physicsClientId=self.client)
         p.resetBaseVelocity(body, (0, 0, 0), (0, 0, 0), physicsClientId=self.client)
 
@@ -488,11 +599,20 @@ class KitchenScene:
         cube stands on any face: it lies only when none of its axes is within 45° of vertical."""
         out = []
         for name in self.free_objects:
-            axes = p.getMatrixFromQuaternion(self.pose(name)[1])  # row-major: row 2 is world z of each axis
+            axes = p.getMatrixFromQuaternion(self._upright_orientation(name))  # row 2: world z of each axis
             up = max(abs(a) for a in axes[6:9]) if self._cube(name) else axes[8]
             if up < LYING:
                 out.append(name)
         return tuple(out)
+
+    def _upright_orientation(self, name: str) -> tuple[float, ...]:
+        """A free object's orientation (xyzw) relative to how it stands upright: its pose's, or for a
+        declared model whose file stands it otherwise, the pose's turned back by its ``upright`` rotation."""
+        orn = self.pose(name)[1]
+        upright = self.upright.get(name)
+        if upright is not None:
+            orn = p.multiplyTransforms((0, 0, 0), orn, (0, 0, 0), p.invertTransform((0, 0, 0), upright)[1])[1]
+        return tuple(orn)
 
     def _cube(self, name: str) -> bool:
         """A block whose three sides are equal (within a millimetre): turned onto another face, it stands."""

@@ -16,7 +16,7 @@ from taskcond.conditions import KINOVA_GRIPPER, Relation, SpatialRelation
 from taskcond.envs.kitchen import KitchenEnv
 from taskcond.execution.world import Observation, Touch
 from taskcond.primitives import get_primitive
-from taskcond.sim.assets import BottleSpec, VesselSpec
+from taskcond.sim.assets import ROUND_CLASSES, shape_class
 from taskcond.sim.perception import EnvironmentInfo, Perception, PerceptionConfig
 from taskcond.sim.recording import VideoRecorder
 from taskcond.sim.scene import TABLE
@@ -34,7 +34,9 @@ KINOVA_STILL = 1e-4
 Franka-only demonstration: the Kinova held still."""
 
 
-def _observation(info: EnvironmentInfo, round_: frozenset[str], lying: frozenset[str]) -> Observation:
+def _observation(
+    info: EnvironmentInfo, round_: frozenset[str], lying: frozenset[str], shapes: dict[str, str]
+) -> Observation:
     return Observation(
         predicates=info.predicates,
         centers={name: box.center for name, box in info.boxes.items()},
@@ -42,6 +44,7 @@ def _observation(info: EnvironmentInfo, round_: frozenset[str], lying: frozenset
         boxes={name: (box.lower, box.upper) for name, box in info.boxes.items()},
         round=round_,
         lying=lying,
+        shapes=shapes,
     )
 
 
@@ -100,13 +103,11 @@ class KitchenWorld:
         """Soft body → the height (m) of its centre lying flat on the table (:data:`FLAT`)."""
         self._joints = tuple(env.scene.joints)
         self._interiors = tuple(env.scene.interiors)
-        self._round = frozenset(
-            name
-            for name, (spec, _) in env.scene.config.free_objects.items()
-            if isinstance(spec, BottleSpec | VesselSpec)
-        )
-        """Free objects of a turned-about-their-axis shape: cylinders (bottle, can) and vessels (bowl, mug:
-        held by the wall, which the mug's handle leaves free on most sides)."""
+        self._shapes = {name: shape_class(spec) for name, (spec, _) in env.scene.config.free_objects.items()}
+        """Free object → its shape class (:func:`~taskcond.sim.assets.shape_class`)."""
+        self._round = frozenset(name for name, shape in self._shapes.items() if shape in ROUND_CLASSES)
+        """Free objects of a turned-about-their-axis shape: cylinders (bottle, can), spheres and vessels
+        (bowl, mug: held by the wall, which the mug's handle leaves free on most sides)."""
         self.env_seconds = 0.0
         self._observed: tuple[int, Observation] | None = None
         """Wall-clock seconds spent inside the environment's step (IK and physics)."""
@@ -132,7 +133,7 @@ class KitchenWorld:
         observation (same noise draw), as a real robot's perception would until something moves."""
         if self._observed is None or self._observed[0] != self.env.steps:
             info = self.perception.observe(self._rng)
-            self._observed = (self.env.steps, _observation(info, self._round, self._lying()))
+            self._observed = (self.env.steps, _observation(info, self._round, self._lying(), self._shapes))
         return self._observed[1]
 
     def _lying(self) -> frozenset[str]:
