@@ -82,6 +82,17 @@ def embedded_backend():
     return backend
 
 
+@pytest.fixture(scope="session")
+def cached_llm(embedded_backend, _project_only):
+    """:func:`embedded_backend` behind the session's response cache, the directory the command line's
+    answers go to as well (``<session cache>/responses``): for tests whose subject is what conditions do
+    rather than how the model writes them, the model answers each distinct request once per session (LHT1's
+    ``grasp bottle`` is asked by several tests). Every session asks it again: its cache directory is new."""
+    from taskcond.llm.cache import CachedBackend
+
+    return CachedBackend(embedded_backend, _project_only / "responses")
+
+
 def pytest_sessionfinish(session: pytest.Session) -> None:
     """With ``TASKCOND_TEST_NO_SKIP`` set (``make test`` sets it: it installs every extra), a skipped test
     fails the session, so that an extra that went missing cannot pass quietly."""

@@ -13,7 +13,6 @@ from typer.testing import CliRunner
 from taskcond.cli import app, main
 from taskcond.conditions import TaskCondition
 from taskcond.generator import ConditionGenerator
-from taskcond.llm.cache import CachedBackend
 from taskcond.primitives import PRIMITIVES
 
 runner = CliRunner()
@@ -153,14 +152,10 @@ def test_tasks_text_shows_the_patterns():
 
 
 @pytest.mark.llm
-def test_conditions_from_the_cache_need_no_model(embedded_backend, monkeypatch, tmp_path):
-    """A repeated run is answered from the on-disk cache: identical, and the model is never loaded."""
-    expected = ConditionGenerator(CachedBackend(embedded_backend, tmp_path / "responses")).generate(
-        "close box"
-    )
-    monkeypatch.setenv("TASKCOND_CACHE_DIR", str(tmp_path))
-    monkeypatch.delenv("TASKCOND_LLM", raising=False)
-    monkeypatch.setenv("TASKCOND_CONFIG", str(tmp_path / "none.toml"))
+def test_conditions_from_the_cache_need_no_model(cached_llm):
+    """A repeated run is answered from the on-disk cache (the session's, where the model's answer was put):
+    identical, and the model is never loaded."""
+    expected = ConditionGenerator(cached_llm).generate("close box")
     result = runner.invoke(app, ["conditions", "close box", "--json"])
     assert result.exit_code == 0, result.output
     assert TaskCondition.from_json(result.stdout) == expected.condition

@@ -221,18 +221,18 @@ def test_run_and_eval_commands(library_dir, tmp_path) -> None:
 
 
 @pytest.mark.llm
-def test_lht1_with_embedded_llm_conditions(library, embedded_backend) -> None:
-    source = LLMConditions(ConditionGenerator(embedded_backend))
+def test_lht1_with_embedded_llm_conditions(library, cached_llm) -> None:
+    source = LLMConditions(ConditionGenerator(cached_llm))
     result = run_episode(RunPlan("LHT1", "LHT1", tuple(plan_run("LHT1").steps)), "llm", 1000, library, source)
     assert result.success, (result.reason, [e["message"] for e in result.events][-6:])
     assert set(result.conditions) >= {"grasp bottle", "close box"}
 
 
 @pytest.mark.llm
-def test_lht1_with_llm_conditions_grounded_in_the_demonstrations(library, embedded_backend) -> None:
+def test_lht1_with_llm_conditions_grounded_in_the_demonstrations(library, cached_llm) -> None:
     """``llm+demo`` on a suite long-horizon task: each step's LLM condition grounded in its primitive's
     demonstration (the repairs in the trace), and the task succeeds."""
-    source = GroundedConditions(ConditionGenerator(embedded_backend), library)
+    source = GroundedConditions(ConditionGenerator(cached_llm), library)
     result = run_episode(plan_run("LHT1"), "llm+demo", 1001, library, source)
     assert result.success, (result.reason, [e["message"] for e in result.events][-6:])
     assert result.method == "llm+demo" and set(result.conditions) == set(plan_run("LHT1").steps)
@@ -241,14 +241,14 @@ def test_lht1_with_llm_conditions_grounded_in_the_demonstrations(library, embedd
 
 
 @pytest.mark.llm
-def test_a_multi_step_free_instruction_from_a_random_start(library, embedded_backend) -> None:
+def test_a_multi_step_free_instruction_from_a_random_start(library, cached_llm) -> None:
     """A user's instruction in their own words: the real model decomposes it, the LLM writes each step's
     condition, the planner and Alg. 1 fill in what the random start needs, and the goal (derived from the
     plan) holds at the end by the ground truth."""
     instruction = "Place the bottle inside the box, then shut the box."
-    plan = plan_run(instruction, llm_decomposer(backend=embedded_backend))
+    plan = plan_run(instruction, llm_decomposer(backend=cached_llm))
     assert plan.decomposed and plan.steps[0] == "grasp bottle" and plan.steps[-1] == "close box"
-    source = LLMConditions(ConditionGenerator(embedded_backend))
+    source = LLMConditions(ConditionGenerator(cached_llm))
     result = run_episode(plan, "llm", 1002, library, source, start_state="random")
     assert result.start == "random"
     assert result.success and result.goal_missing == [], (result.reason, result.events[-4:])

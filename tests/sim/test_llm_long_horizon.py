@@ -18,9 +18,9 @@ pytestmark = [pytest.mark.sim, pytest.mark.llm]
 
 
 @pytest.mark.parametrize("task", ["LHT3", "LHT4"])
-def test_a_long_horizon_task_with_embedded_llm_conditions(task, tmp_path, embedded_backend) -> None:
+def test_a_long_horizon_task_with_embedded_llm_conditions(task, tmp_path, cached_llm) -> None:
     library = learn_library(tmp_path, [task])
-    source = LLMConditions(ConditionGenerator(embedded_backend))
+    source = LLMConditions(ConditionGenerator(cached_llm))
     plan = plan_run(task)
     result = run_episode(plan, "llm", 1000, library, source)
     assert result.success, (result.reason, [e["message"] for e in result.events][-6:])
