@@ -476,15 +476,48 @@ def _said(text: str) -> str:
     return " ".join(re.sub(r"[^\w' ]+", " ", text.lower()).split())
 
 
+JOIN_WORDS = ("and after that", "and then", "then", "and")
+"""Words that join an instruction's clauses (after :func:`_said`: no commas), longest first."""
+
+
 def goal_of_words(text: str, generated: Generated) -> tuple[Predicate, ...] | None:
-    """The goal an instruction's own words say, when they are one of the ``generated`` single tasks'
-    wordings ("Stack the bowl on the box." → ``bowl above box``, ``gripper not grasping``), else None: what
-    ``taskcond run`` judges such an instruction by, so that a plan contradicting its words (``move bowl
-    into box``) fails the goal check instead of meeting the goal it derives itself."""
+    """The goal an instruction's own words say, when they are one of the ``generated`` tasks' wordings
+    ("Stack the bowl on the box." → ``bowl above box``, ``gripper not grasping``) or clauses that are single
+    tasks' wordings joined by "then", "and", "and then" or "and after that" (a clause may say "it" for the
+    previous clause's object), else None: what ``taskcond run`` judges such an instruction by, so that a
+    plan contradicting its words (``move bowl into box``) fails the goal check instead of meeting the goal
+    it derives itself. A sequence's goal is its steps' goals together (:func:`_goal`)."""
     said = _said(text)
     for c in generated.combinations:
-        if len(c.steps) == 1 and any(_said(w) == said for w in c.wordings):
+        if any(_said(w) == said for w in c.wordings):
             return c.goal
+    singles = {_said(w): c.steps[0] for c in generated.combinations if len(c.steps) == 1 for w in c.wordings}
+    steps = _clauses(said.split(), singles, None)
+    if not steps or len(steps) == 1:
+        return None
+    try:
+        return _goal(tuple(steps), load_templates())
+    except ValueError:
+        return None
+
+
+def _clauses(words: list[str], singles: dict[str, Step], previous: Step | None) -> list[Step] | None:
+    """``words`` read as single tasks' wordings joined by :data:`JOIN_WORDS`, the first clause first (the
+    longest that reads), or None."""
+    for end in range(len(words), 0, -1):
+        clause = " ".join(words[:end])
+        step = singles.get(clause)
+        if step is None and previous is not None:
+            step = singles.get(re.sub(r"\bit\b", f"the {previous.subject}", clause))
+        if step is None:
+            continue
+        rest = words[end:]
+        if not rest:
+            return [step]
+        for join in JOIN_WORDS:
+            n = len(join.split())
+            if " ".join(rest[:n]) == join and (later := _clauses(rest[n:], singles, step)):
+                return [step, *later]
     return None
 
 

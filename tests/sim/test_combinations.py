@@ -77,6 +77,13 @@ def test_the_words_own_goal_is_the_templates(generated) -> None:
     assert goal_of_words("stack the bowl on the box", generated) == stack.goal
     assert goal_of_words("Open the door!", generated) == (parse_predicate("microwave open"),)
     assert goal_of_words("Stack the bowl on the box and sing.", generated) is None
+    joined = "Pick up the mug, then put it in the microwave and after that close the top drawer."
+    goal = {"mug inside microwave", "top drawer closed"}
+    assert {str(q) for q in goal_of_words(joined, generated)} == goal  # "it" is the mug; hand state: last
+    assert {str(q) for q in goal_of_words("Stack the cube on the box and open the box.", generated)} == {
+        "cube above box",
+        "box open",
+    }
 
 
 def test_an_on_top_wording_is_not_met_by_an_into_final_state(generated) -> None:
