@@ -242,13 +242,23 @@ def test_without_conditions_nothing_is_raised_and_the_open_drops_what_the_hand_h
 def test_alg2_backs_up_and_moves_the_goal_away_from_an_unallowed_contact():
     can = (0.46, 0.08, 0.24)  # on a shelf, its top on the hand's way to above the bottle
     world = TableTopWorld(can=can)
-    result = Executor(world, _library(), "env", TableConditions(), CONFIG).run(["grasp bottle"])
+    goals: list[np.ndarray] = []  # the goal of every movement started or re-planned, in order
+
+    class Goals:
+        def moving(self, path, goal, monitor, closed) -> None:
+            goals.append(np.array(goal))
+
+    executor = Executor(world, _library(), "env", TableConditions(), CONFIG, observer=Goals())
+    result = executor.run(["grasp bottle"])
     collisions = [e for e in result.events if e.kind == EventKind.COLLISION]
     assert collisions and result.adjustments >= 1
     assert collisions[0].data["collision"] == ["gripper", "can"]
     shift = np.array(collisions[0].data["shift"])
     assert shift[2] == 0.0 and 0 < np.linalg.norm(shift) <= CONFIG.max_goal_shift + 1e-9
     assert shift[:2] @ (np.array(can[:2]) - [0.5, 0.1]) < 0  # away from the contact
+    # the movement goes on towards its goal moved by the shift (Alg. 2 lines 12-13)
+    k = next(i for i, g in enumerate(goals) if np.allclose(g, collisions[0].data["goal"], atol=2e-4))
+    assert k > 0 and np.allclose(goals[k] - goals[k - 1], shift, atol=2e-4)
 
 
 def test_the_planner_opens_the_box_before_the_hand_is_full():

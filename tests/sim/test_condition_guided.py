@@ -120,8 +120,10 @@ def test_alg1_stops_on_a_cycle_with_a_reason(library) -> None:
 
 def test_alg2_backs_up_and_moves_the_goal_on_an_unallowed_collision(library) -> None:
     """A grasp whose condition allows no collision with the bottle: touching it is reported, the arm backs
-    up and the goal is moved horizontally away from the contact by at most 5 cm, a bounded number of times;
-    then the grasp goes on and holds the bottle (its post-condition checked, the task's success)."""
+    up and the goal is moved horizontally away from the contact by at most 5 cm (here both fingers touch,
+    so the contact's centre is the bottle's and the move is nil; ``tests/test_fake_world.py`` checks a
+    one-sided contact's move and that the movement goes on towards the moved goal), a bounded number of
+    times; then the grasp goes on and holds the bottle (its post-condition checked, the task's success)."""
     strict = {"grasp bottle": TaskCondition("grasp bottle", post_conditions=(GripperState("bottle"),))}
     env = make("grasp-bottle")
     try:
