@@ -122,6 +122,7 @@ def test_every_primitive_is_declared_completely():
     assert [p.id for p in PRIMITIVES.values() if p.lets_go] == ["release"]
     assert [p.id for p in PRIMITIVES.values() if p.sets_container] == ["open", "close"]
     assert [p.id for p in PRIMITIVES.values() if p.achieves is None] == ["tilt", "fold", "move"]
+    assert [p.id for p in PRIMITIVES.values() if p.to_position] == ["move"]
     # an incomplete declaration says what is wrong
     from dataclasses import replace
 

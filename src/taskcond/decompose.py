@@ -65,20 +65,16 @@ def parse_plan(
     return tasks
 
 
-PLACES = frozenset({"move_on_top", "move_into", "move_in_front"})
-"""Primitives that set an object down at a place; the prompt says the object is released after. A move to
-a position is a carry (the suite's move task ends holding the object): "move it to the target position"
-leaves it held."""
-
-
 def with_releases(tasks: Sequence[str]) -> list[str]:
-    """``tasks`` (canonical primitive task names) with ``release A`` right after the last move of each A
-    (:data:`PLACES`) that no later task releases, moves, tilts or grasps again (the prompt's rule that an
-    object is released after it is moved); the gripper's last move of an object then leaves it there."""
+    """``tasks`` (canonical primitive task names) with ``release A`` right after the last move of each A to a
+    place (:attr:`~taskcond.primitives.Primitive.places`) that no later task releases, moves, tilts or
+    grasps again (the prompt's rule that an object is released after it is moved); the gripper's last move
+    of an object then leaves it there. A move to a position is a carry that leaves the object held
+    (:attr:`~taskcond.primitives.Primitive.to_position`: "move it to the target position")."""
     plan = list(tasks)
     for index in range(len(plan) - 1, -1, -1):
         task = parse_task(plan[index])
-        if task.primitive.id not in PLACES:
+        if task.primitive.places is None:
             continue
         obj = task.objects[0]
         later = [parse_task(t) for t in plan[index + 1 :]]
@@ -101,15 +97,16 @@ def mentions(instruction: str, words: Sequence[str]) -> bool:
 def without_carry_releases(tasks: Sequence[str], instruction: str) -> list[str]:
     """``tasks`` without a ``release A`` that directly follows ``move A to position`` when ``instruction``
     has none of the :data:`LET_GO` words: a move to a position is a carry that leaves the object held
-    (:data:`PLACES`), and a small model adds the release by the prompt's rule "release it after"."""
+    (:attr:`~taskcond.primitives.Primitive.to_position`), and a small model adds the release by the prompt's
+    rule "release it after"."""
     if mentions(instruction, LET_GO):
         return list(tasks)
     plan: list[str] = []
     last = None  # the last task kept, parsed
     for name in tasks:
         task = parse_task(name)
-        carried = last is not None and last.primitive.id == "move" and last.objects[:1] == task.objects[:1]
-        if not (task.primitive.id == "release" and carried):
+        carried = last is not None and last.primitive.to_position and last.objects[:1] == task.objects[:1]
+        if not (task.primitive.lets_go and carried):
             plan.append(name)
             last = task
     return plan
@@ -178,7 +175,6 @@ def decompose(
 
 
 __all__ = [
-    "PLACES",
     "DecompositionError",
     "LLMError",
     "decompose",

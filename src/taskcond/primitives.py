@@ -132,6 +132,12 @@ class Primitive:
         return isinstance(self._effect_template, ContainerState)
 
     @property
+    def to_position(self) -> bool:
+        """It carries its object to a position rather than into a relation with another (the suite's
+        ``move A to position``): a carry whose effect places nothing, which leaves the object held."""
+        return self.approach is HandApproach.CARRY and self.places is None
+
+    @property
     def places(self) -> Relation | None:
         """The relation its effect puts its first object in with another (``above`` for a move on top of),
         or None."""

@@ -192,9 +192,7 @@ class FreeTask(Task):
     def setup(self, env: KitchenEnv, rng: np.random.Generator) -> None:
         if self.start == "random":
             random_start(env, rng)
-        moved = [
-            parse_task(s).objects[0] for s in self.info.primitive if parse_task(s).primitive.id == "move"
-        ]
+        moved = [parse_task(s).objects[0] for s in self.info.primitive if parse_task(s).primitive.to_position]
         if moved and moved[0] in env.scene.free_objects:
             env.target = free_goal(env, moved[0], rng)
 
