@@ -192,10 +192,12 @@ class Approach:
         A grasp of an object that fell over stops the run: every grasp skill is demonstrated on an upright
         object, and re-grasps that cannot hold it would only spend the budget. A grasp of a round object
         whose demonstrated approach would bring the hand against a neighbour comes from another side
-        (:meth:`_turn`). A grasp whose hand is far from every demonstrated start goes to the highest one
-        first (:meth:`_far`, :meth:`_transit`), and so does an open or close, unless the primitive is
-        tried again (``retry``): the failed try came from there (a retried grasp starts above the object,
-        where :meth:`_back_off` left the hand; a retried open goes on from the lid where the hand is).
+        (:meth:`_turn`); a grasp of an object whose heading the world perceives is turned by its
+        heading's change since the demonstration (:func:`heading_turn`). A grasp whose hand is far from
+        every demonstrated start goes to the highest one first (:meth:`_far`, :meth:`_transit`), and so
+        does an open or close, unless the primitive is tried again (``retry``): the failed try came from
+        there (a retried grasp starts above the object, where :meth:`_back_off` left the hand; a retried
+        open goes on from the lid where the hand is).
 
         Raises:
             ExecutionError: the target is unseen or lies (a grasp), no skill fits, or it needs more arms.
@@ -233,8 +235,11 @@ class Approach:
         if far and not carry:
             skill = max(self.library.candidates(task), key=lambda s: float(s.start_offset[2]))
         turn = 0.0
-        if grasp and target is not None and target_name in obs.round and skill.segments[0].anchor == "target":
-            turn = self._turn(skill, target_name, target, obs, far)
+        if grasp and target is not None and skill.segments[0].anchor == "target":
+            if target_name in obs.round:
+                turn = self._turn(skill, target_name, target, obs, far)
+            elif target_name in obs.yaws and skill.target_yaw is not None:
+                turn = heading_turn(obs.yaws[target_name] - skill.target_yaw)
         aside = np.zeros(3)
         if parsed.primitive.places is Relation.ABOVE and target is not None and target_name is not None:
             aside = self._aside(skill, target_name, target, obs)
@@ -441,6 +446,14 @@ class Approach:
         reason = self.world.step(position, orientation, gripper)
         if reason is not None:
             raise ExecutionError(f"simulation failed: {reason}", FailureKind.SIMULATION)
+
+
+def heading_turn(change: float) -> float:
+    """The turn (rad, in [−π/2, π/2)) of a grasp's demonstration for an object whose heading changed by
+    ``change`` rad since it was demonstrated: the change modulo half a turn, since a parallel gripper
+    turned half a turn about its approach axis holds the same way
+    (:func:`~taskcond.execution.skills.twin_turn`)."""
+    return float((change + math.pi / 2) % math.pi - math.pi / 2)
 
 
 WAY_SAMPLES = 30

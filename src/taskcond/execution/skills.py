@@ -74,6 +74,8 @@ class Demonstration:
         target_contact: index of the first sample at which the gripper touched the target, or -1.
         condition: the task condition derived from the environment (FromEnv), or None.
         evidence: the environment information at the start and end and the contacts during it, or None.
+        target_yaw: the target's perceived heading at the start, rad
+            (:attr:`~taskcond.execution.world.Observation.yaws`), or None where the world perceives none.
     """
 
     task_name: str
@@ -87,6 +89,7 @@ class Demonstration:
     target_contact: int = -1
     condition: TaskCondition | None = None
     evidence: DemoEvidence | None = None
+    target_yaw: float | None = None
 
 
 @dataclass(frozen=True, eq=False)
@@ -204,6 +207,7 @@ class Skill:
         segments: the DMP pieces in order.
         condition: the FromEnv task condition of the demonstration, or None.
         evidence: what the demonstration showed at its start and end (:class:`DemoEvidence`), or None.
+        target_yaw: the demonstrated target's heading, rad (:attr:`Demonstration.target_yaw`), or None.
     """
 
     task_name: str
@@ -212,6 +216,7 @@ class Skill:
     segments: tuple[Segment, ...]
     condition: TaskCondition | None = None
     evidence: DemoEvidence | None = None
+    target_yaw: float | None = None
 
     @property
     def duration(self) -> float:
@@ -302,6 +307,7 @@ def learn_skill(demo: Demonstration) -> Skill:
         segments=tuple(segments),
         condition=demo.condition,
         evidence=demo.evidence,
+        target_yaw=demo.target_yaw,
     )
 
 
@@ -393,6 +399,7 @@ class SkillLibrary:
                     "segments": pieces,
                     "condition": None if skill.condition is None else skill.condition.to_dict(),
                     "evidence": None if skill.evidence is None else skill.evidence.to_dict(),
+                    "target_yaw": skill.target_yaw,
                 }
             )
         path = directory / "library.json"
@@ -444,6 +451,7 @@ class SkillLibrary:
                         segments=tuple(segments),
                         condition=None if cond is None else TaskCondition.from_dict(cond),
                         evidence=None if evidence is None else DemoEvidence.from_dict(evidence),
+                        target_yaw=entry.get("target_yaw"),
                     )
                 )
         except (KeyError, OSError, ValueError) as exc:

@@ -43,6 +43,10 @@ class Observation:
             a grasp of one may come from any side.
         lying: the free objects that fell over (their upright axis tilted more than 45°): a grasp
             demonstrated on an upright object cannot hold them.
+        yaws: free object name → its heading about the world's vertical, rad (the angle from world x of
+            the horizontal part of its own x axis), for the upright, not round objects a world perceives it
+            of; a grasp of one is turned by its heading's change since the skill's demonstration (a box
+            held across its narrow side). Empty where a world perceives no orientation (the kitchen).
     """
 
     predicates: frozenset[Predicate]
@@ -51,6 +55,7 @@ class Observation:
     boxes: dict[str, tuple[np.ndarray, np.ndarray]] = field(default_factory=dict)
     round: frozenset[str] = frozenset()
     lying: frozenset[str] = frozenset()
+    yaws: dict[str, float] = field(default_factory=dict)
 
     def holds(self, predicate: Predicate) -> bool:
         return predicate in self.predicates
