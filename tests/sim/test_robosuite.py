@@ -50,6 +50,7 @@ def test_environment_information_in_the_vocabulary() -> None:
         assert SpatialRelation("can", Relation.INSIDE, "start bin") in obs.predicates
         assert SpatialRelation("can", Relation.INSIDE, "can bin") not in obs.predicates
         assert obs.round == frozenset({"can"})
+        assert obs.yaws == {}  # a round object has no heading to turn a grasp by
         assert world.observe() is obs  # the same noise draw until the next step
         assert world.affords("move_into", ("can", "milk")) is not None  # not a container
         assert world.affords("grasp", ("can bin",)) is not None  # a bin cannot be picked up
@@ -73,6 +74,8 @@ def test_condition_guided_lift_from_one_demonstration(tmp_path) -> None:  # type
     assert "gripper grasping cube" in result.conditions["grasp cube"]["post_conditions"]
     assert "gripper grasping cube" in result.final_predicates
     library.save(tmp_path / "skills")
+    assert SkillLibrary.load(tmp_path / "skills").skills["Lift"].target_yaw == demos[0].target_yaw
+    assert demos[0].target_yaw is not None  # the cube's heading, which a grasp is turned by
     args = ["reproduce", "robosuite", "--out", str(tmp_path / "out"), "--skills", str(tmp_path / "skills")]
     runner = CliRunner()
     bad = runner.invoke(app, [*args, "--row", "Door"])
