@@ -208,7 +208,7 @@ def _reproduce_robosuite(
 
     from taskcond.application.robosuite import evaluate, run_config
     from taskcond.cli.robosuite import library
-    from taskcond.reproduce import only_columns, only_rows, robosuite_table, write_table
+    from taskcond.reproduce import only_columns, only_rows, robosuite_table
     from taskcond.results import ConfigMismatchError, ResultsFile
     from taskcond.worlds.robosuite import RobosuiteUnavailableError, require_robosuite
     from taskcond.worlds.robosuite.demos import default_library_dir
@@ -246,7 +246,13 @@ def _reproduce_robosuite(
             err=True,
         ),
     )
-    seconds = time.perf_counter() - start
+    _write_robosuite(spec, records, n, out, config, time.perf_counter() - start)
+
+
+def _write_robosuite(spec, records: list, n: int, out: Path, config, seconds: float) -> None:
+    """Write and print robosuite's table; exit 1 if an episode crashed."""
+    from taskcond.reproduce import write_table
+
     crashed = sum(bool(r.get("crashed")) for r in records)
     footer = (
         f"{len(records)} episodes, {n} per task and method (seeds {spec.seed}+); this invocation "

@@ -192,12 +192,11 @@ class Approach:
         A grasp of an object that fell over stops the run: every grasp skill is demonstrated on an upright
         object, and re-grasps that cannot hold it would only spend the budget. A grasp of a round object
         whose demonstrated approach would bring the hand against a neighbour comes from another side
-        (:meth:`_turn`); a grasp of an object whose heading the world perceives is turned by its
-        heading's change since the demonstration (:func:`heading_turn`). A grasp whose hand is far from
-        every demonstrated start goes to the highest one first (:meth:`_far`, :meth:`_transit`), and so
-        does an open or close, unless the primitive is tried again (``retry``): the failed try came from
-        there (a retried grasp starts above the object, where :meth:`_back_off` left the hand; a retried
-        open goes on from the lid where the hand is).
+        (:meth:`_turn`); one with a perceived heading is turned by its change (:meth:`_grasp_turn`). A
+        grasp whose hand is far from every demonstrated start goes to the highest one first (:meth:`_far`,
+        :meth:`_transit`), and so does an open or close, unless the primitive is tried again (``retry``):
+        the failed try came from there (a retried grasp starts above the object, where :meth:`_back_off`
+        left the hand; a retried open goes on from the lid where the hand is).
 
         Raises:
             ExecutionError: the target is unseen or lies (a grasp), no skill fits, or it needs more arms.
@@ -235,11 +234,8 @@ class Approach:
         if far and not carry:
             skill = max(self.library.candidates(task), key=lambda s: float(s.start_offset[2]))
         turn = 0.0
-        if grasp and target is not None and skill.segments[0].anchor == "target":
-            if target_name in obs.round:
-                turn = self._turn(skill, target_name, target, obs, far)
-            elif target_name in obs.yaws and skill.target_yaw is not None:
-                turn = heading_turn(obs.yaws[target_name] - skill.target_yaw)
+        if grasp and target is not None and target_name is not None and skill.segments[0].anchor == "target":
+            turn = self._grasp_turn(skill, target_name, target, obs, far)
         aside = np.zeros(3)
         if parsed.primitive.places is Relation.ABOVE and target is not None and target_name is not None:
             aside = self._aside(skill, target_name, target, obs)
@@ -250,6 +246,17 @@ class Approach:
         return Aim(
             task, skill, target_name, None if target is None else target + aside, turn, aside, approach, over
         )
+
+    def _grasp_turn(
+        self, skill: Skill, target_name: str, target: np.ndarray, obs: Observation, far: bool
+    ) -> float:
+        """The turn (rad) of a grasp's demonstration: a round object's free side (:meth:`_turn`), an object
+        with a perceived heading's change since the demonstration (:func:`heading_turn`), else 0."""
+        if target_name in obs.round:
+            return self._turn(skill, target_name, target, obs, far)
+        if target_name in obs.yaws and skill.target_yaw is not None:
+            return heading_turn(obs.yaws[target_name] - skill.target_yaw)
+        return 0.0
 
     def _far(self, task: str, skill: Skill, offset: np.ndarray) -> bool:
         """Whether the hand, at ``offset`` (3,) m from the target, is farther than
