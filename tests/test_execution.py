@@ -492,3 +492,4 @@ def test_a_grasp_turns_by_the_heading_change_modulo_half_a_turn() -> None:
     assert heading_turn(pi - 0.3) == pytest.approx(-0.3)
     assert heading_turn(-pi + 0.2) == pytest.approx(0.2)
     assert -pi / 2 <= heading_turn(7.0) < pi / 2
+    assert heading_turn(np.radians(71.0), pi / 2) == pytest.approx(np.radians(-19.0))  # a square section

@@ -255,7 +255,8 @@ class Approach:
         if target_name in obs.round:
             return self._turn(skill, target_name, target, obs, far)
         if target_name in obs.yaws and skill.target_yaw is not None:
-            return heading_turn(obs.yaws[target_name] - skill.target_yaw)
+            period = obs.yaw_periods.get(target_name, math.pi)
+            return heading_turn(obs.yaws[target_name] - skill.target_yaw, period)
         return 0.0
 
     def _far(self, task: str, skill: Skill, offset: np.ndarray) -> bool:
@@ -455,12 +456,13 @@ class Approach:
             raise ExecutionError(f"simulation failed: {reason}", FailureKind.SIMULATION)
 
 
-def heading_turn(change: float) -> float:
-    """The turn (rad, in [−π/2, π/2)) of a grasp's demonstration for an object whose heading changed by
-    ``change`` rad since it was demonstrated: the change modulo half a turn, since a parallel gripper
-    turned half a turn about its approach axis holds the same way
-    (:func:`~taskcond.execution.skills.twin_turn`)."""
-    return float((change + math.pi / 2) % math.pi - math.pi / 2)
+def heading_turn(change: float, period: float = math.pi) -> float:
+    """The turn (rad, in [−period/2, period/2)) of a grasp's demonstration for an object whose heading
+    changed by ``change`` rad since it was demonstrated: the least turn the object looks the same after,
+    the change modulo its ``period`` (rad; at most half a turn, as a parallel gripper turned half a turn
+    about its approach axis holds the same way, :func:`~taskcond.execution.skills.twin_turn`)."""
+    period = min(period, math.pi)
+    return float((change + period / 2) % period - period / 2)
 
 
 WAY_SAMPLES = 30

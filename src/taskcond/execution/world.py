@@ -47,6 +47,8 @@ class Observation:
             the horizontal part of its own x axis), for the upright, not round objects a world perceives it
             of; a grasp of one is turned by its heading's change since the skill's demonstration (a box
             held across its narrow side). Empty where a world perceives no orientation (the kitchen).
+        yaw_periods: object name → the turn (rad) about the vertical after which it looks the same (π for
+            a rectangular section, π/2 for a square one), for each object of :attr:`yaws`.
     """
 
     predicates: frozenset[Predicate]
@@ -56,6 +58,7 @@ class Observation:
     round: frozenset[str] = frozenset()
     lying: frozenset[str] = frozenset()
     yaws: dict[str, float] = field(default_factory=dict)
+    yaw_periods: dict[str, float] = field(default_factory=dict)
 
     def holds(self, predicate: Predicate) -> bool:
         return predicate in self.predicates

@@ -315,6 +315,12 @@ class RobosuiteScene:
         local ``geom_aabb`` of its geoms, which robosuite's objects align with their body)."""
         return np.max([self.model.geom_aabb[g, 3:] for g in self.entities[name].geoms], axis=0)
 
+    def yaw_period(self, name: str) -> float:
+        """The turn (rad) about its vertical after which a free object's box looks the same: π/2 for a
+        section whose sides differ by less than :data:`CUBE_LIKE`, else π."""
+        half = self.half_size(name)
+        return np.pi / 2 if max(half[0], half[1]) < CUBE_LIKE * min(half[0], half[1]) else np.pi
+
     def yaw(self, name: str) -> float:
         """Heading (rad) of a free object about the world's vertical: the angle from world x of the
         horizontal part of its own x axis."""

@@ -103,6 +103,7 @@ class RobosuiteWorld:
         predicates.add(GripperState(self.scene.grasped(), "gripper"))
         predicates.update(ContainerState(c, True) for c in self.scene.containers)
         lying = self.scene.lying()
+        headed = [n for n in self.scene.free if n not in ROUND and n not in lying]
         angle = self.scene.door_angle()
         if angle is not None and (angle >= DOOR_OPEN or angle <= DOOR_CLOSED):
             predicates.add(ContainerState("door", angle >= DOOR_OPEN))
@@ -113,7 +114,8 @@ class RobosuiteWorld:
             boxes={name: (box.lower, box.upper) for name, box in boxes.items()},
             round=ROUND & set(self.scene.free),
             lying=lying,
-            yaws={n: self.scene.yaw(n) for n in self.scene.free if n not in ROUND and n not in lying},
+            yaws={n: self.scene.yaw(n) for n in headed},
+            yaw_periods={n: self.scene.yaw_period(n) for n in headed},
         )
 
     def touches(self) -> tuple[Touch, ...]:
