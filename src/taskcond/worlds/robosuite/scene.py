@@ -318,8 +318,12 @@ class RobosuiteScene:
     def yaw_period(self, name: str) -> float:
         """The turn (rad) about its vertical after which a free object's box looks the same: π/2 for a
         section whose sides differ by less than :data:`CUBE_LIKE`, else π."""
+        return np.pi if self.elongated(name) else np.pi / 2
+
+    def elongated(self, name: str) -> bool:
+        """Whether a free object's horizontal section has sides differing by :data:`CUBE_LIKE` or more."""
         half = self.half_size(name)
-        return np.pi / 2 if max(half[0], half[1]) < CUBE_LIKE * min(half[0], half[1]) else np.pi
+        return bool(max(half[0], half[1]) >= CUBE_LIKE * min(half[0], half[1]))
 
     def yaw(self, name: str) -> float:
         """Heading (rad) of a free object about the world's vertical: the angle from world x of the

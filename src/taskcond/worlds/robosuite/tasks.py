@@ -5,9 +5,9 @@ that do it, a scripted oracle per primitive (robosuite ships no scripted experts
 An oracle plans from the true state of the scene when its primitive starts (MuJoCo's poses, never the
 perceived ones) and yields end-effector commands, one per control step: (position (3,) m, orientation (4,)
 xyzw, gripper 0 open … 1 closed), world frame. Every primitive keeps the hand pointing down
-(:func:`down`); a grasp turns it about the vertical so that the fingers close across the object's narrow
-side (:func:`across`; the cereal box is 10 cm long, more than the Panda's 8 cm opening), the primitives
-after it keep the heading the hand has.
+(:func:`down`); a grasp turns it about the vertical so that the fingers close across an elongated
+object's narrow side (:func:`across`; the cereal box is 10 cm long, more than the Panda's 8 cm opening),
+the primitives after it keep the heading the hand has.
 """
 
 from __future__ import annotations
@@ -19,7 +19,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from taskcond.primitives import parse_task
-from taskcond.worlds.robosuite.scene import CUBE_LIKE, ROUND, RobosuiteScene
+from taskcond.worlds.robosuite.scene import ROUND, RobosuiteScene
 
 Command = tuple[np.ndarray, np.ndarray, float]
 """One control step's end-effector command: position (3,) m, orientation (4,) xyzw, gripper 0–1."""
@@ -143,18 +143,17 @@ def _pointing_down(closing: np.ndarray) -> np.ndarray:
 
 def across(scene: RobosuiteScene, obj: str, quat: np.ndarray) -> np.ndarray:
     """The hand pointing down (``quat`` (4,) xyzw, pointing down) turned about the vertical by the least
-    turn that makes its fingers close along one of the object's own horizontal axes: the shorter of its x
-    and y (:meth:`~RobosuiteScene.half_size`), either of them for a section within :data:`CUBE_LIKE`
-    (the milk's square one); ``quat`` for a round object. xyzw (4,)."""
-    if obj in ROUND:
+    turn that makes its fingers close along the shorter of the object's own horizontal axes
+    (:meth:`~RobosuiteScene.half_size`) for an elongated section (:meth:`~RobosuiteScene.elongated`: the
+    cereal box); ``quat`` for a round or square one. xyzw (4,)."""
+    if obj in ROUND or not scene.elongated(obj):
         return quat
     axes = Rotation.from_quat(scene.pose(obj)[1]).as_matrix()
     half = scene.half_size(obj)
-    kept = [k for k in (0, 1) if half[k] < CUBE_LIKE * min(half[0], half[1])]
+    narrow = axes[:, 0] if half[0] <= half[1] else axes[:, 1]
+    closing = np.array([narrow[0], narrow[1], 0.0])
     y = Rotation.from_quat(quat).as_matrix()[:, 1]
-    closing = [np.array([axes[0, k], axes[1, k], 0.0]) for k in kept]
-    best = max(closing, key=lambda c: abs(c @ y) / np.linalg.norm(c))
-    return _pointing_down(best if best @ y >= 0.0 else -best)
+    return _pointing_down(closing if closing @ y >= 0.0 else -closing)
 
 
 def _line(start: np.ndarray, goal: np.ndarray, speed: float = SPEED, dt: float = 0.05) -> list[np.ndarray]:

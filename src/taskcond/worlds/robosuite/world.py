@@ -4,9 +4,10 @@ implementation of the protocol, next to :class:`taskcond.worlds.kitchen.KitchenW
 Environment information (§III-A.2) is made as in the kitchen: the ground-truth box of every named thing
 (here from MuJoCo's geoms, :meth:`~taskcond.worlds.robosuite.scene.RobosuiteScene.box`) with the same
 Gaussian noise on each coordinate of its centre and corners (:func:`taskcond.sim.perception._add_noise`),
-the gripper's box exact (a robot knows its hand); the heading (yaw) of every upright free object that is
-not round, exact (no noise model of orientation: the kitchen perceives none); the spatial relations by the
-one definition of :mod:`taskcond.relations`; ``gripper grasping X`` by robosuite's own ``_check_grasp``
+the gripper's box exact (a robot knows its hand); the heading (yaw) of every upright free object with an
+elongated section (the cereal box; a square one, the milk's, turned a grasp by up to 45° and missed in the
+four-object scene), exact (no noise model of orientation: the kitchen perceives none); the spatial
+relations by the one definition of :mod:`taskcond.relations`; ``gripper grasping X`` by robosuite's own ``_check_grasp``
 (both finger pads on X); bins always ``open``; the door ``open`` from robosuite's success angle (0.3 rad)
 on, ``closed`` below 0.05 rad.
 """
@@ -103,7 +104,7 @@ class RobosuiteWorld:
         predicates.add(GripperState(self.scene.grasped(), "gripper"))
         predicates.update(ContainerState(c, True) for c in self.scene.containers)
         lying = self.scene.lying()
-        headed = [n for n in self.scene.free if n not in ROUND and n not in lying]
+        headed = [n for n in self.scene.free if n not in ROUND and n not in lying and self.scene.elongated(n)]
         angle = self.scene.door_angle()
         if angle is not None and (angle >= DOOR_OPEN or angle <= DOOR_CLOSED):
             predicates.add(ContainerState("door", angle >= DOOR_OPEN))
