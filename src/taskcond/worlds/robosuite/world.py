@@ -7,9 +7,9 @@ Gaussian noise on each coordinate of its centre and corners (:func:`taskcond.sim
 the gripper's box exact (a robot knows its hand); the heading (yaw) of every upright free object with an
 elongated section (the cereal box; a square one, the milk's, turned a grasp by up to 45° and missed in the
 four-object scene), exact (no noise model of orientation: the kitchen perceives none); the spatial
-relations by the one definition of :mod:`taskcond.relations`; ``gripper grasping X`` by robosuite's own ``_check_grasp``
-(both finger pads on X); bins always ``open``; the door ``open`` from robosuite's success angle (0.3 rad)
-on, ``closed`` below 0.05 rad.
+relations by the one definition of :mod:`taskcond.relations`; ``gripper grasping X`` by robosuite's own
+``_check_grasp`` (both finger pads on X); bins always ``open``; the door ``open`` from robosuite's success
+angle (0.3 rad) on, ``closed`` below 0.05 rad.
 """
 
 from __future__ import annotations
