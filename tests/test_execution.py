@@ -25,7 +25,7 @@ from taskcond.decompose import (
     without_carry_releases,
 )
 from taskcond.dmp import rollout
-from taskcond.execution.approach import CARRY_MARGIN, _carry_height, _support_below
+from taskcond.execution.approach import CARRY_MARGIN, _carry_height, _support_below, heading_turn
 from taskcond.execution.collisions import CollisionMonitor, Landing, allowed_for_arms, landings, riders
 from taskcond.execution.executor import _part_way
 from taskcond.execution.skills import (
@@ -483,3 +483,13 @@ def test_an_object_is_set_down_on_what_is_under_its_middle() -> None:
     obs.boxes["can"] = (np.array([0.49, -0.01, 0.0]), np.array([0.60, 0.10, 0.20]))
     assert _support_below("bottle", obs, ()) == pytest.approx(0.20)
     assert _support_below("far", obs, ()) is None
+
+
+def test_a_grasp_turns_by_the_heading_change_modulo_half_a_turn() -> None:
+    """A parallel gripper holds the same way turned half a turn: the least of the equivalent turns."""
+    pi = np.pi
+    assert heading_turn(0.3) == pytest.approx(0.3)
+    assert heading_turn(pi - 0.3) == pytest.approx(-0.3)
+    assert heading_turn(-pi + 0.2) == pytest.approx(0.2)
+    assert -pi / 2 <= heading_turn(7.0) < pi / 2
+    assert heading_turn(np.radians(71.0), pi / 2) == pytest.approx(np.radians(-19.0))  # a square section

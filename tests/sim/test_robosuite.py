@@ -50,6 +50,7 @@ def test_environment_information_in_the_vocabulary() -> None:
         assert SpatialRelation("can", Relation.INSIDE, "start bin") in obs.predicates
         assert SpatialRelation("can", Relation.INSIDE, "can bin") not in obs.predicates
         assert obs.round == frozenset({"can"})
+        assert obs.yaws == {}  # a round object has no heading to turn a grasp by
         assert world.observe() is obs  # the same noise draw until the next step
         assert world.affords("move_into", ("can", "milk")) is not None  # not a container
         assert world.affords("grasp", ("can bin",)) is not None  # a bin cannot be picked up
@@ -62,7 +63,8 @@ def test_environment_information_in_the_vocabulary() -> None:
         env.close()
 
 
-def test_condition_guided_lift_from_one_demonstration() -> None:
+def test_condition_guided_lift_from_one_demonstration(tmp_path) -> None:  # type: ignore[no-untyped-def]
+    """An episode from the learned skill, then the same cell through ``taskcond reproduce robosuite``."""
     demos, ok = record_demonstrations("Lift", seed=0)
     assert ok and len(demos) == 1
     library = SkillLibrary()
@@ -71,6 +73,20 @@ def test_condition_guided_lift_from_one_demonstration() -> None:
     assert result.success, result.reason
     assert "gripper grasping cube" in result.conditions["grasp cube"]["post_conditions"]
     assert "gripper grasping cube" in result.final_predicates
+    library.save(tmp_path / "skills")
+    assert SkillLibrary.load(tmp_path / "skills").skills["Lift"].target_yaw == demos[0].target_yaw
+    assert demos[0].target_yaw is None  # a cube's square section has no heading to turn a grasp by
+    args = ["reproduce", "robosuite", "--out", str(tmp_path / "out"), "--skills", str(tmp_path / "skills")]
+    runner = CliRunner()
+    bad = runner.invoke(app, [*args, "--row", "Door"])
+    assert bad.exit_code == 2 and "robosuite has no row Door; valid:" in bad.output
+    done = runner.invoke(app, [*args, "--row", "Lift", "--column", "env", "--episodes", "1"])
+    assert done.exit_code == 0, done.output
+    table = json.loads((tmp_path / "out" / "robosuite.json").read_text())
+    cells = table["blocks"][0]["rows"][0]["cells"]
+    assert (cells["env"]["successes"], cells["env"]["trials"]) == (1, 1)  # seed 1000, as the episode above
+    assert cells["llm"]["status"] == "not run" and cells["robomimic"]["paper"] == 100
+    assert table["config"]["world"].startswith("robosuite ")
 
 
 def test_cli_world_option() -> None:

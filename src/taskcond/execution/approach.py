@@ -204,10 +204,11 @@ class Approach:
         A grasp of an object that fell over stops the run: every grasp skill is demonstrated on an upright
         object, and re-grasps that cannot hold it would only spend the budget. A grasp of a round object
         whose demonstrated approach would bring the hand against a neighbour comes from another side
-        (:meth:`_turn`). A grasp whose hand is far from every demonstrated start goes to the highest one
-        first (:meth:`_far`, :meth:`_transit`), and so does an open or close, unless the primitive is
-        tried again (``retry``): the failed try came from there (a retried grasp starts above the object,
-        where :meth:`_back_off` left the hand; a retried open goes on from the lid where the hand is).
+        (:meth:`_turn`); one with a perceived heading is turned by its change (:meth:`_grasp_turn`). A
+        grasp whose hand is far from every demonstrated start goes to the highest one first (:meth:`_far`,
+        :meth:`_transit`), and so does an open or close, unless the primitive is tried again (``retry``):
+        the failed try came from there (a retried grasp starts above the object, where :meth:`_back_off`
+        left the hand; a retried open goes on from the lid where the hand is).
 
         Raises:
             ExecutionError: the target is unseen or lies (a grasp), no skill fits, or it needs more arms.
@@ -237,8 +238,8 @@ class Approach:
             skill = max(choice.skills, key=lambda s: float(s.start_offset[2]))
         scale = _empty_hand_scale(task, skill, obs)
         turn = 0.0
-        if grasp and target is not None and target_name in obs.round and skill.segments[0].anchor == "target":
-            turn = self._turn(skill, target_name, target, obs, far, scale)
+        if grasp and target is not None and target_name is not None and skill.segments[0].anchor == "target":
+            turn = self._grasp_turn(skill, target_name, target, obs, far, scale)
         aside = np.zeros(3)
         if carry and target is not None and target_name is not None:
             aside = carry_shift(task, skill, obs, here)
@@ -273,6 +274,25 @@ class Approach:
                 FailureKind.NO_SKILL,
             )
         return choice, skill
+
+    def _grasp_turn(
+        self,
+        skill: Skill,
+        target_name: str,
+        target: np.ndarray,
+        obs: Observation,
+        far: bool,
+        scale: np.ndarray,
+    ) -> float:
+        """The turn (rad) of a grasp's demonstration: a round object's free side (:meth:`_turn`), an object
+        with a perceived heading's change since the demonstration (:func:`heading_turn`), else 0; ``scale``
+        (3,) the grasp offset's scaling (:func:`_empty_hand_scale`)."""
+        if target_name in obs.round:
+            return self._turn(skill, target_name, target, obs, far, scale)
+        if target_name in obs.yaws and skill.target_yaw is not None:
+            period = obs.yaw_periods.get(target_name, math.pi)
+            return heading_turn(obs.yaws[target_name] - skill.target_yaw, period)
+        return 0.0
 
     def _far(self, task: str, skill: Skill, offset: np.ndarray) -> bool:
         """Whether the hand, at ``offset`` (3,) m from the target, is farther than
@@ -477,6 +497,15 @@ class Approach:
         reason = self.world.step(position, orientation, gripper)
         if reason is not None:
             raise ExecutionError(f"simulation failed: {reason}", FailureKind.SIMULATION)
+
+
+def heading_turn(change: float, period: float = math.pi) -> float:
+    """The turn (rad, in [−period/2, period/2)) of a grasp's demonstration for an object whose heading
+    changed by ``change`` rad since it was demonstrated: the least turn the object looks the same after,
+    the change modulo its ``period`` (rad; at most half a turn, as a parallel gripper turned half a turn
+    about its approach axis holds the same way, :func:`~taskcond.execution.skills.twin_turn`)."""
+    period = min(period, math.pi)
+    return float((change + period / 2) % period - period / 2)
 
 
 WAY_SAMPLES = 30

@@ -195,7 +195,12 @@ class EventLog:
             + (f" [{choice}]" if choice else "")
             + (f", offset scaled by {fmt_vector(scale)} to the perceived box" if scaled else "")
             + (f", goal from {target_name} at {fmt_vector(target)}" if target is not None else "")
-            + (f", turned {degrees:+d}° about it (a neighbour is in the way)" if degrees else "")
+            + (
+                f", turned {degrees:+d}° about it (a neighbour in the way, or the object turned since its "
+                "demonstration)"
+                if degrees
+                else ""
+            )
             + (f", {fmt_vector(aside)} aside of the demonstrated spot (taken)" if moved else "")
             + (f", from its demonstrated start at {fmt_vector(approach)}" if approach is not None else ""),
             {"skill": skill.task_id, "target": target_name, "target_center": json_vector(target)}

@@ -128,6 +128,8 @@ class Demonstration:
         shapes: each task object's shape class and perceived box at the start (:class:`ObjectShape`).
         hold_depth: height (m) of the hand above the bottom of the object it holds at the start (a carry),
             or None.
+        target_yaw: the target's perceived heading at the start, rad
+            (:attr:`~taskcond.execution.world.Observation.yaws`), or None where the world perceives none.
     """
 
     task_name: str
@@ -143,6 +145,7 @@ class Demonstration:
     evidence: DemoEvidence | None = None
     shapes: dict[str, ObjectShape] = field(default_factory=dict)
     hold_depth: float | None = None
+    target_yaw: float | None = None
 
 
 @dataclass(frozen=True, eq=False)
@@ -270,6 +273,7 @@ class Skill:
         evidence: what the demonstration showed at its start and end (:class:`DemoEvidence`), or None.
         shapes: the demonstrated objects' shape classes and boxes (:attr:`Demonstration.shapes`).
         hold_depth: the hand's height above the held object's bottom at the start of a carry, m, or None.
+        target_yaw: the demonstrated target's heading, rad (:attr:`Demonstration.target_yaw`), or None.
     """
 
     task_name: str
@@ -280,6 +284,7 @@ class Skill:
     evidence: DemoEvidence | None = None
     shapes: dict[str, ObjectShape] = field(default_factory=dict)
     hold_depth: float | None = None
+    target_yaw: float | None = None
 
     @property
     def duration(self) -> float:
@@ -372,6 +377,7 @@ def learn_skill(demo: Demonstration) -> Skill:
         evidence=demo.evidence,
         shapes=dict(demo.shapes),
         hold_depth=demo.hold_depth,
+        target_yaw=demo.target_yaw,
     )
 
 
@@ -543,6 +549,7 @@ class SkillLibrary:
                     "evidence": None if skill.evidence is None else skill.evidence.to_dict(),
                     "shapes": {o: {"shape": v.shape, "size": list(v.size)} for o, v in skill.shapes.items()},
                     "hold_depth": skill.hold_depth,
+                    "target_yaw": skill.target_yaw,
                 }
             )
         path = directory / "library.json"
@@ -599,6 +606,7 @@ class SkillLibrary:
                             for o, v in entry.get("shapes", {}).items()
                         },
                         hold_depth=entry.get("hold_depth"),
+                        target_yaw=entry.get("target_yaw"),
                     )
                 )
         except (KeyError, OSError, ValueError) as exc:

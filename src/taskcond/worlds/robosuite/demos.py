@@ -23,7 +23,7 @@ from taskcond.worlds.robosuite.scene import make_env, reset
 from taskcond.worlds.robosuite.tasks import Command, down, get_task, oracle
 from taskcond.worlds.robosuite.world import RobosuiteWorld
 
-ORACLE_REVISION = 1
+ORACLE_REVISION = 5
 """Revision of the robosuite oracles the default library is learned from; raised whenever their
 demonstrations change, so that an older library is not picked up by default."""
 SETTLE = 5
@@ -78,6 +78,7 @@ def record(world: RobosuiteWorld, name: str, task_id: str, commands: Iterable[Co
         target_contact=contact,
         condition=condition_from_environment(name, before.predicates, after.predicates, touched),
         evidence=evidence.restricted(evidence.objects),
+        target_yaw=before.yaws.get(target) if target is not None else None,
     )
 
 

@@ -306,9 +306,30 @@ class RobosuiteScene:
         return frozenset(out)
 
     def _cube_like(self, name: str) -> bool:
-        """Whether the object's own box (MuJoCo's local ``geom_aabb`` of its geoms) is cube-like."""
-        half = np.max([self.model.geom_aabb[g, 3:] for g in self.entities[name].geoms], axis=0)
+        """Whether the object's own box (:meth:`half_size`) is cube-like."""
+        half = self.half_size(name)
         return bool(half.max() < CUBE_LIKE * half.min())
+
+    def half_size(self, name: str) -> np.ndarray:
+        """Half the edges (3,) m of a free object's own box along its own axes (the largest of MuJoCo's
+        local ``geom_aabb`` of its geoms, which robosuite's objects align with their body)."""
+        return np.max([self.model.geom_aabb[g, 3:] for g in self.entities[name].geoms], axis=0)
+
+    def yaw_period(self, name: str) -> float:
+        """The turn (rad) about its vertical after which a free object's box looks the same: π/2 for a
+        section whose sides differ by less than :data:`CUBE_LIKE`, else π."""
+        return np.pi if self.elongated(name) else np.pi / 2
+
+    def elongated(self, name: str) -> bool:
+        """Whether a free object's horizontal section has sides differing by :data:`CUBE_LIKE` or more."""
+        half = self.half_size(name)
+        return bool(max(half[0], half[1]) >= CUBE_LIKE * min(half[0], half[1]))
+
+    def yaw(self, name: str) -> float:
+        """Heading (rad) of a free object about the world's vertical: the angle from world x of the
+        horizontal part of its own x axis."""
+        axes = Rotation.from_quat(self.pose(name)[1]).as_matrix()
+        return float(np.arctan2(axes[1, 0], axes[0, 0]))
 
     # ------------------------------------------------------------------------------------- contacts
     def touches(self) -> list[Touching]:

@@ -4,8 +4,10 @@ that do it, a scripted oracle per primitive (robosuite ships no scripted experts
 
 An oracle plans from the true state of the scene when its primitive starts (MuJoCo's poses, never the
 perceived ones) and yields end-effector commands, one per control step: (position (3,) m, orientation (4,)
-xyzw, gripper 0 open … 1 closed), world frame. Every primitive keeps the hand pointing down in the
-orientation :func:`down` derives from the arm's start pose.
+xyzw, gripper 0 open … 1 closed), world frame. Every primitive keeps the hand pointing down
+(:func:`down`); a grasp turns it about the vertical so that the fingers close across an elongated
+object's narrow side (:func:`across`; the cereal box is 10 cm long, more than the Panda's 8 cm opening),
+the primitives after it keep the heading the hand has.
 """
 
 from __future__ import annotations
@@ -17,7 +19,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from taskcond.primitives import parse_task
-from taskcond.worlds.robosuite.scene import RobosuiteScene
+from taskcond.worlds.robosuite.scene import ROUND, RobosuiteScene
 
 Command = tuple[np.ndarray, np.ndarray, float]
 """One control step's end-effector command: position (3,) m, orientation (4,) xyzw, gripper 0–1."""
@@ -26,9 +28,11 @@ SPEED = 0.2
 """Oracle hand speed, m/s."""
 HOLD = 12
 """Control steps the oracle holds still where the gripper closes or opens."""
-LIFT = 0.15
+LIFT = 0.22
 """Height (m) a grasp lifts its object by; a release rises as much (robosuite's PickPlace counts an object
-placed only once the hand is 7 cm away from it)."""
+placed only once the hand is 7 cm away from it). More than the tallest object robosuite places (the cereal
+box, 15 cm): a skill demonstrated alone then carries its object over the others (at 15 cm the bread
+grazed the cereal's top and knocked it over)."""
 ABOVE = 0.10
 """Height (m) above an object's top where a grasp's descent starts."""
 GRIP_DEPTH = 0.035
@@ -124,12 +128,32 @@ def get_task(task_id: str) -> RobosuiteTask:
 # ------------------------------------------------------------------------------------------- oracles
 def down(scene: RobosuiteScene) -> np.ndarray:
     """The hand pointing straight down (its z axis world −z), its fingers' closing axis (its y) the
-    horizontal part of the start pose's: the start pose without its tilt, xyzw (4,)."""
+    horizontal part of the current pose's: the current pose without its tilt, xyzw (4,)."""
     start = Rotation.from_quat(scene.ee_pose()[1]).as_matrix()
-    y = np.array([start[0, 1], start[1, 1], 0.0])
-    y /= np.linalg.norm(y)
+    return _pointing_down(np.array([start[0, 1], start[1, 1], 0.0]))
+
+
+def _pointing_down(closing: np.ndarray) -> np.ndarray:
+    """The hand pointing straight down with its fingers' closing axis along the horizontal ``closing``
+    (3,), xyzw (4,)."""
+    y = closing / np.linalg.norm(closing)
     z = np.array([0.0, 0.0, -1.0])
     return Rotation.from_matrix(np.column_stack([np.cross(y, z), y, z])).as_quat()
+
+
+def across(scene: RobosuiteScene, obj: str, quat: np.ndarray) -> np.ndarray:
+    """The hand pointing down (``quat`` (4,) xyzw, pointing down) turned about the vertical by the least
+    turn that makes its fingers close along the shorter of the object's own horizontal axes
+    (:meth:`~RobosuiteScene.half_size`) for an elongated section (:meth:`~RobosuiteScene.elongated`: the
+    cereal box); ``quat`` for a round or square one. xyzw (4,)."""
+    if obj in ROUND or not scene.elongated(obj):
+        return quat
+    axes = Rotation.from_quat(scene.pose(obj)[1]).as_matrix()
+    half = scene.half_size(obj)
+    narrow = axes[:, 0] if half[0] <= half[1] else axes[:, 1]
+    closing = np.array([narrow[0], narrow[1], 0.0])
+    y = Rotation.from_quat(quat).as_matrix()[:, 1]
+    return _pointing_down(closing if closing @ y >= 0.0 else -closing)
 
 
 def _line(start: np.ndarray, goal: np.ndarray, speed: float = SPEED, dt: float = 0.05) -> list[np.ndarray]:
@@ -157,8 +181,9 @@ def _path(
 
 
 def grasp(scene: RobosuiteScene, obj: str, quat: np.ndarray) -> Iterator[Command]:
-    """Above the object, straight down to :data:`GRIP_DEPTH` below its top (:data:`GRIP_FLOOR` above its
-    bottom at least), close, lift :data:`LIFT`."""
+    """Above the object (turning the hand :func:`across` it), straight down to :data:`GRIP_DEPTH` below its
+    top (:data:`GRIP_FLOOR` above its bottom at least), close, lift :data:`LIFT`."""
+    quat = across(scene, obj, quat)
     here, _ = scene.ee_pose()
     lower, upper = scene.box(obj)
     centre = (lower + upper) / 2
@@ -205,17 +230,20 @@ def carry(scene: RobosuiteScene, obj: str, place: str, quat: np.ndarray, inside:
 
 
 def oracle(scene: RobosuiteScene, task_name: str, quat: np.ndarray) -> Iterator[Command]:
-    """The scripted commands of one primitive task from the scene's current state.
+    """The scripted commands of one primitive task from the scene's current state; ``quat`` (4,) xyzw is the
+    hand pointing down (:func:`down`) at the task's start: a grasp turns it across its object, the other
+    primitives keep the hand's current heading.
 
     Raises:
         ValueError: a primitive no oracle here performs.
     """
     task = parse_task(task_name)
+    held = down(scene)
     plans: dict[str, Callable[[], Iterator[Command]]] = {
         "grasp": lambda: grasp(scene, task.objects[0], quat),
-        "release": lambda: release(scene, task.objects[0], quat),
-        "move_into": lambda: carry(scene, *task.objects, quat, inside=True),
-        "move_on_top": lambda: carry(scene, *task.objects, quat, inside=False),
+        "release": lambda: release(scene, task.objects[0], held),
+        "move_into": lambda: carry(scene, *task.objects, held, inside=True),
+        "move_on_top": lambda: carry(scene, *task.objects, held, inside=False),
     }
     if task.primitive.id not in plans:
         raise ValueError(f"no robosuite oracle for {task.name!r}; oracles: {', '.join(plans)}")
