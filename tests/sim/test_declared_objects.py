@@ -229,7 +229,7 @@ def test_declared_objects_enter_the_combination_benchmark_with_their_roles() -> 
     objects = scene_roles()
     duck, jar = objects["rubber duck"], objects["jar"]
     assert duck.free and duck.roles.graspable and not duck.roles.container
-    assert 0.03 < min(duck.size) and max(duck.size) < 0.2  # the mesh's box at the declared scale
+    assert min(duck.size) > 0.03 and max(duck.size) < 0.2  # the mesh's box at the declared scale
     assert jar.roles.container and jar.roles.vessel and jar.interior is not None
     generated = generate(objects)
     names = {s.name for c in generated.combinations for s in c.steps}
