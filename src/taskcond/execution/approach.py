@@ -91,10 +91,11 @@ class Aim:
             size closes at the same place relative to the perceived box; ones as demonstrated.
         choice: why this skill (:attr:`~taskcond.execution.skills.Choice.reason`); empty when it was
             demonstrated on the task's own objects.
-        descent: an object-centred grasp (issue 31): the hand goes to ``approach`` above the demonstrated
-            grasp point and the skill's open piece comes straight down onto it (its horizontal forcing
-            term off, :func:`_conditioned`), so that no sideways way of the demonstration sweeps the
-            object or a neighbour; False replays the demonstrated way.
+        descent: an object-centred grasp (issue 31) of an object that stands up (:func:`_tall`): the hand
+            goes to ``approach`` above the demonstrated grasp point and the skill's open piece comes
+            straight down onto it (its horizontal forcing term off, :func:`_conditioned`), so that no
+            sideways way of the demonstration sweeps the object or a neighbour; False replays the
+            demonstrated way.
     """
 
     task: str
@@ -261,7 +262,7 @@ class Approach:
         if far and not carry:
             skill = max(choice.skills, key=lambda s: float(s.start_offset[2]))
         scale = _empty_hand_scale(task, skill, obs)
-        descent = grasp and target is not None and target_name in obs.boxes and _descends(skill)
+        descent = grasp and target is not None and _tall(target_name, obs) and _descends(skill)
         turn = 0.0
         if (
             grasp
@@ -578,6 +579,17 @@ fingertips brush what stands right beside the object)."""
 PLACE_ABOVE = 0.01
 """Height (m) of a carried object's bottom above the top of what it is set on at the end of a move on top
 when the demonstrated height would push it more than this into it (:meth:`Approach._aside`)."""
+
+
+def _tall(name: str, obs: Observation) -> bool:
+    """Whether ``name``'s perceived box is at least as high as its narrower horizontal side: an object that
+    a hand coming in sideways can tip over (the bottle, the mug, the toothpaste, the cube), unlike a flat
+    one (the spatula, the cloth), whose demonstrated way in (a finger slid along the table) is kept."""
+    if name not in obs.boxes:
+        return False
+    lo, hi = obs.boxes[name]
+    size = hi - lo
+    return bool(size[2] >= min(size[0], size[1]))
 
 
 def _descends(skill: Skill) -> bool:
