@@ -240,7 +240,7 @@ def test_without_conditions_nothing_is_raised_and_the_open_drops_what_the_hand_h
 
 
 def test_alg2_backs_up_and_moves_the_goal_away_from_an_unallowed_contact():
-    can = (0.46, 0.08, 0.24)  # on a shelf, its top on the hand's way to above the bottle
+    can = (0.50, 0.12, 0.24)  # on a shelf, its top 2 cm beside the hand's way down onto the bottle
     world = TableTopWorld(can=can)
     goals: list[np.ndarray] = []  # the goal of every movement started or re-planned, in order
 

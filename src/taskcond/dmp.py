@@ -262,6 +262,13 @@ class DMPParameters:
         """(d,) factor multiplying the forcing term: ``g − y0`` where scaled, 1 elsewhere."""
         return np.where(self.goal_scaled, goal - y0, 1.0)
 
+    def unforced(self, dims: np.ndarray) -> DMPParameters:
+        """The same demonstration without a forcing term in the dimensions ``dims`` ((d,) bool): there a
+        rollout is the plain spring-damper transition of Eq. 1 from its start to its goal, a straight
+        line (the demonstrated excursion of that dimension is dropped)."""
+        dims = np.asarray(dims, dtype=bool)
+        return dataclasses.replace(self, weights=np.where(dims[:, None], 0.0, self.weights))
+
     def unscaled(self, dims: np.ndarray) -> DMPParameters:
         """The same demonstration with the forcing term of the dimensions ``dims`` ((d,) bool) unscaled:
         weights multiplied by the demonstration's ``g − y0`` so that the learned forcing is unchanged, and

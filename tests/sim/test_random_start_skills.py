@@ -243,3 +243,30 @@ def test_an_open_far_from_its_demonstrated_start_goes_there_first_and_opens() ->
         assert result.completed and world.observe().holds(ContainerState("box", True))
     finally:
         env.close()
+
+
+def test_a_grasp_comes_straight_down_from_above_its_object_and_turns_a_narrow_one_from_a_neighbour() -> None:
+    """Issue 31: the toothpaste with the bottle 10 cm on its -x side, where the demonstrated grasp's way
+    (in sideways from 14 cm off) brings the hand's housing. The grasp goes to a pre-grasp pose straight
+    above the grasp point, is turned about the narrow toothpaste (it fits the open hand both ways) so the
+    housing lies clear of the bottle, comes straight down and holds it; nothing falls over, and the trace
+    says which approach was used."""
+    library = learn_library(None, ["grasp-toothpaste"])
+    env, world = _scene(
+        {"toothpaste": (0.50, 0.12), "bottle": (0.40, 0.15), "bowl": (0.30, -0.30), "mug": (0.45, -0.30)}
+    )
+    try:
+        executor = Executor(world, library, method="env", source=EnvConditions(library))
+        result = executor.run(["grasp toothpaste"])
+        obs = world.observe()
+        (aim,) = [e for e in result.events if e.kind == "primitive"][:1]
+        assert aim.data["approach_kind"] == "pre-grasp above" and "straight down" in aim.message
+        above = np.array(aim.data["approach"])
+        assert np.linalg.norm(above[:2] - obs.centers["toothpaste"][:2]) < 0.03  # over it, not beside it
+        assert above[2] > obs.boxes["toothpaste"][1][2] + 0.04
+        assert aim.data.get("turn_degrees") in (90, -90)
+        assert result.completed and obs.grasped() == "toothpaste"
+        assert not obs.lying, obs.lying
+        assert not [e for e in result.events if e.kind == "collision"]  # nothing touched on the way
+    finally:
+        env.close()

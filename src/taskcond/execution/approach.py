@@ -47,14 +47,17 @@ MIN_SCALED = 0.01
 """Least demonstrated displacement (m) of a piece's dimension for Eq. 2's scaling of its forcing term."""
 
 
-def _conditioned(seg: Segment, start: np.ndarray, goal: np.ndarray) -> DMPParameters:
+def _conditioned(seg: Segment, start: np.ndarray, goal: np.ndarray, descent: bool = False) -> DMPParameters:
     """The piece's DMP for a movement from ``start`` to ``goal`` (3,): Eq. 2's scaled forcing term where
     the new offset ``goal − start`` keeps the demonstrated sign and at most :data:`MAX_STRETCH` times its
     size, the unscaled term elsewhere (:meth:`DMPParameters.unscaled`), so that a demonstration is never
     replayed mirrored or blown up; a dimension the demonstration hardly moved (less than
     :data:`MIN_SCALED`) is always unscaled, so that a millimetre more or less of offset does not switch
-    its demonstrated excursion on or off."""
+    its demonstrated excursion on or off. A ``descent`` (:attr:`Aim.descent`) keeps no horizontal forcing
+    term: the hand comes straight down onto its goal, whatever way the demonstration came in sideways."""
     dmp = seg.dmp
+    if descent:
+        dmp = dmp.unforced(np.tile([True, True, False], dmp.n_dims // 3))
     demo = dmp.goal - dmp.y0
     with np.errstate(divide="ignore", invalid="ignore"):
         ratio = np.where(dmp.goal_scaled, (np.asarray(goal) - np.asarray(start)) / demo, 1.0)
@@ -78,9 +81,9 @@ class Aim:
             on top of a crowded target, up onto its top; :func:`carry_shift`: up or down for a carried
             object held at another height or a target of another height than demonstrated), already added
             to ``target``; zero as demonstrated.
-        approach: (3,) m, world frame: where the hand goes before the skill runs, the skill's
-            demonstrated start relative to the target (:meth:`Approach._transit`); None to start where it
-            is.
+        approach: (3,) m, world frame: where the hand goes before the skill runs (:meth:`Approach._transit`):
+            the skill's demonstrated start relative to the target, or with ``descent`` the pre-grasp pose
+            above the grasp point (:meth:`Approach._pregrasp`); None to start where it is.
         over: least height (m, world z) of the hand on its way to ``approach`` when it carries an object
             (:func:`_carry_height`); None for an empty hand.
         scale: (3,) factors on the target-anchored piece's demonstrated offset per world axis
@@ -88,6 +91,11 @@ class Aim:
             size closes at the same place relative to the perceived box; ones as demonstrated.
         choice: why this skill (:attr:`~taskcond.execution.skills.Choice.reason`); empty when it was
             demonstrated on the task's own objects.
+        descent: an object-centred grasp (issue 31) of an object that stands up (:func:`_tall`): the hand
+            goes to ``approach`` above the demonstrated grasp point and the skill's open piece comes
+            straight down onto it (its horizontal forcing term off, :func:`_conditioned`), so that no
+            sideways way of the demonstration sweeps the object or a neighbour; False replays the
+            demonstrated way.
     """
 
     task: str
@@ -100,6 +108,7 @@ class Aim:
     over: float | None = None
     scale: np.ndarray = dataclasses.field(default_factory=lambda: np.ones(3))
     choice: str = ""
+    descent: bool = False
 
     @property
     def arms(self) -> int:
@@ -124,7 +133,12 @@ class Approach:
         grasp is tried again, so that the object the missed grasp disturbed settles and the next try
         starts above it, not beside it in whatever pose the miss left the hand (a retry from there
         brushes the object over); and when a release is skipped because its object is no longer grasped
-        but a finger still touches it (it slipped), so that the hand lets go of it."""
+        but a finger still touches it (it slipped), so that the hand lets go of it. A missed grasp that
+        still lifted its object off its support (pinched at an edge, not held as a grasp) first lowers it
+        back onto it (:meth:`_lower`): opened up there, the hand would drop it and it would fall over."""
+        target = target_object(task)
+        if target is not None and self._touched(target):
+            self._lower(task, depth, target)
         here, quat = self.world.ee_pose()
         opened = 0.0
         self.log.back_off(task, depth, BACK_OFF_HEIGHT, why)
@@ -132,15 +146,27 @@ class Approach:
             self._step(here, quat, opened)
         self._straight(here + np.array([0.0, 0.0, BACK_OFF_HEIGHT]), quat, opened)
 
+    def _touched(self, obj: str) -> bool:
+        """Whether a hand touches ``obj`` now."""
+        return any(
+            obj in (t.a, t.b) and not {t.a, t.b}.isdisjoint(self.world.arms) for t in self.world.touches()
+        )
+
     def _set_down(self, task: str, depth: int) -> None:
         """Beyond the paper: before a release that Alg. 1 raised to free the hand (another primitive needs
-        ``gripper not grasping``), lower the held object straight down onto what lies under it
-        (:func:`_support_below`) until it touches something or is :data:`SET_DOWN_GAP` above it, so that
+        ``gripper not grasping``), lower the held object onto what lies under it (:meth:`_lower`), so that
         it is put down rather than dropped from where the hand happened to be (a dropped bottle falls
         over, and no grasp skill picks up a lying object)."""
-        obs = self.world.observe()
         held = parse_task(task).objects[0]
-        if obs.grasped() != held or held not in obs.boxes:
+        if self.world.observe().grasped() == held:
+            self._lower(task, depth, held)
+
+    def _lower(self, task: str, depth: int, held: str) -> None:
+        """Lower the hand with ``held`` straight down onto what lies under it (:func:`_support_below`)
+        until it touches something or is :data:`SET_DOWN_GAP` above it; nothing when it is already
+        lower than twice that or stands on nothing."""
+        obs = self.world.observe()
+        if held not in obs.boxes:
             return
         lower, _ = obs.boxes[held]
         support = _support_below(held, obs, self.world.arms)
@@ -237,20 +263,56 @@ class Approach:
         if far and not carry:
             skill = max(choice.skills, key=lambda s: float(s.start_offset[2]))
         scale = _empty_hand_scale(task, skill, obs)
+        descent = grasp and target is not None and _tall(target_name, obs) and _descends(skill)
         turn = 0.0
         if grasp and target is not None and target_name is not None and skill.segments[0].anchor == "target":
-            turn = self._grasp_turn(skill, target_name, target, obs, far, scale)
+            turn = self._grasp_turn(skill, target_name, target, obs, far, scale, descent)
         aside = np.zeros(3)
         if carry and target is not None and target_name is not None:
             aside = carry_shift(task, skill, obs, here)
         if parsed.primitive.places is Relation.ABOVE and target is not None and target_name is not None:
             aside = aside + self._aside(skill, target_name, target + aside, obs)
         approach = target + aside + turned(skill.start_offset, turn) if far and target is not None else None
+        if descent:
+            approach = self._pregrasp(skill, target_name, target, obs, turn, scale)
         over = None
         if carry and approach is not None:
             over = _carry_height(parsed.objects[0], here, approach, obs, self.world.arms)
         aimed = None if target is None else target + aside
-        return Aim(task, skill, target_name, aimed, turn, aside, approach, over, scale, choice.reason)
+        return Aim(
+            task, skill, target_name, aimed, turn, aside, approach, over, scale, choice.reason, descent
+        )
+
+    def _turnable(self, target_name: str, obs: Observation) -> bool:
+        """Whether a grasp of ``target_name`` may come from another side (:meth:`_turn`): a round object,
+        held the same from every side, or one whose perceived box is narrower than the open hand
+        (:attr:`~taskcond.execution.config.Hand.opening`) both ways, so that the fingers close on it
+        across either side (the toothpaste, the cube)."""
+        if target_name in obs.round:
+            return True
+        if target_name not in obs.boxes:
+            return False
+        lo, hi = obs.boxes[target_name]
+        return bool(np.all(hi[:2] - lo[:2] < self.hand.opening))
+
+    def _pregrasp(
+        self,
+        skill: Skill,
+        target_name: str,
+        target: np.ndarray,
+        obs: Observation,
+        turn: float = 0.0,
+        scale: np.ndarray | None = None,
+    ) -> np.ndarray:
+        """(3,) m, world frame: the pre-grasp pose of an object-centred grasp (:attr:`Aim.descent`) of
+        ``target_name`` (centre ``target`` (3,) m): straight above the grasp point (the goal of the skill's
+        open piece, turned by ``turn`` rad and its offset scaled by ``scale``), as high as the demonstration
+        started above the target, and at least :data:`PREGRASP_CLEARANCE` above the top of the target's
+        perceived box, so that the fingers pass over it on their way there."""
+        grasp = skill.segments[0].goal(target, target, turn, scale)
+        top = float(obs.boxes[target_name][1][2])
+        height = max(float(target[2] + skill.start_offset[2]), top + PREGRASP_CLEARANCE)
+        return np.array([grasp[0], grasp[1], height])
 
     def _choose(
         self, task: str, obs: Observation, offset: np.ndarray, orientation: np.ndarray
@@ -283,15 +345,17 @@ class Approach:
         obs: Observation,
         far: bool,
         scale: np.ndarray,
+        descent: bool,
     ) -> float:
-        """The turn (rad) of a grasp's demonstration: a round object's free side (:meth:`_turn`), an object
-        with a perceived heading's change since the demonstration (:func:`heading_turn`), else 0; ``scale``
-        (3,) the grasp offset's scaling (:func:`_empty_hand_scale`)."""
-        if target_name in obs.round:
-            return self._turn(skill, target_name, target, obs, far, scale)
+        """The turn (rad) of a grasp's demonstration: an object with a perceived heading turned by its
+        change since the demonstration (:func:`heading_turn`); a round or narrow object (:meth:`_turnable`)
+        from a free side (:meth:`_turn`, ``descent`` its object-centred way straight down); else 0.
+        ``scale`` (3,) is the grasp offset's scaling (:func:`_empty_hand_scale`)."""
         if target_name in obs.yaws and skill.target_yaw is not None:
             period = obs.yaw_periods.get(target_name, math.pi)
             return heading_turn(obs.yaws[target_name] - skill.target_yaw, period)
+        if self._turnable(target_name, obs):
+            return self._turn(skill, target_name, target, obs, far, scale, descent)
         return 0.0
 
     def _far(self, task: str, skill: Skill, offset: np.ndarray) -> bool:
@@ -405,13 +469,16 @@ class Approach:
         obs: Observation,
         far: bool,
         scale: np.ndarray | None = None,
+        descent: bool = False,
     ) -> float:
-        """The side a grasp of the round object ``target_name`` (centre ``target`` (3,) m) comes from: the
-        demonstration turned by 0, ±π/2 or π rad about the object's vertical axis (a round object is held
-        the same from every side). The hand's way there is what the skill's pieces with the gripper still
-        open make of it (their DMPs rolled out from the hand, or from the demonstrated start when ``far``:
-        :meth:`_far`), ending at the grasp pose. The demonstrated side (0) is kept unless the hand's
-        footprint (:attr:`ExecutionConfig.hand`, along the finger axis of the demonstrated orientation,
+        """The side a grasp of the round or narrow object ``target_name`` (centre ``target`` (3,) m,
+        :meth:`_turnable`) comes from: the demonstration turned by 0, ±π/2 or π rad about the object's
+        vertical axis (a round object is held the same from every side, a narrow one across either). The
+        hand's way there is what the skill's pieces with the gripper still open make of it (their DMPs
+        rolled out from the hand, or from the demonstrated start when ``far``: :meth:`_far`, or straight
+        down from the pre-grasp pose of a ``descent``: :meth:`_pregrasp`), ending at the grasp pose. The
+        demonstrated side (0) is kept unless the hand's footprint
+        (:attr:`ExecutionConfig.hand`, along the finger axis of the demonstrated orientation,
         turned) reaches into the perceived box of anything standing above the fingertips at the grasp pose,
         or above the housing (``self.hand.housing`` over the fingertips) on the way, by more than
         :attr:`ExecutionConfig.clearance` (an open drawer, a neighbouring bottle, the box's corner passed
@@ -444,8 +511,10 @@ class Approach:
         def way(turn: float) -> tuple[np.ndarray, np.ndarray]:
             """(m, 3) hand positions to the grasp pose and (m, 4) orientations xyzw on the way."""
             point, quat = (target + turned(skill.start_offset, turn) if far else here), here_q
+            if descent:
+                point = self._pregrasp(skill, target_name, target, obs, turn, scale)
             points, quats = [], []
-            if far:
+            if far or descent:
                 path = self._transit_path(here, point)
                 quat = opened[0].orientation(1.0, here_q, turn)
                 points.append(path[::TRANSIT_EVERY])
@@ -453,7 +522,9 @@ class Approach:
             for seg in opened:
                 goal = seg.goal(point, target, turn, scale)
                 points.append(
-                    rollout(_conditioned(seg, point, goal), point, goal, n_steps=WAY_SAMPLES).positions
+                    rollout(
+                        _conditioned(seg, point, goal, descent), point, goal, n_steps=WAY_SAMPLES
+                    ).positions
                 )
                 quats.append(seg.orientation(fractions, quat, turn))
                 point, quat = goal, quats[-1][-1]
@@ -481,7 +552,7 @@ class Approach:
             return clear, -depth, gap
 
         best, best_clearance = 0.0, clearance(*way(0.0))
-        if best_clearance[0] and -best_clearance[1] <= (0.0 if far else self.config.clearance):
+        if best_clearance[0] and -best_clearance[1] <= (0.0 if far or descent else self.config.clearance):
             return 0.0
         for turn in (math.pi / 2, -math.pi / 2, math.pi):
             points, quats = way(turn)
@@ -508,6 +579,9 @@ def heading_turn(change: float, period: float = math.pi) -> float:
     return float((change + period / 2) % period - period / 2)
 
 
+PREGRASP_CLEARANCE = 0.05
+"""Least height (m) of the fingertips above the top of the target's perceived box at the pre-grasp pose of
+an object-centred grasp (:meth:`Approach._pregrasp`)."""
 WAY_SAMPLES = 30
 """Points per open-gripper piece at which :meth:`Approach._turn` checks the hand's footprint."""
 BACK_OFF_HEIGHT = 0.15
@@ -531,6 +605,32 @@ fingertips brush what stands right beside the object)."""
 PLACE_ABOVE = 0.01
 """Height (m) of a carried object's bottom above the top of what it is set on at the end of a move on top
 when the demonstrated height would push it more than this into it (:meth:`Approach._aside`)."""
+
+
+def _tall(name: str, obs: Observation) -> bool:
+    """Whether ``name``'s perceived box is at least as high as its narrower horizontal side: an object that
+    a hand coming in sideways can tip over (the bottle, the mug, the toothpaste, the cube), unlike a flat
+    one (the spatula, the cloth), whose demonstrated way in (a finger slid along the table) is kept."""
+    if name not in obs.boxes:
+        return False
+    lo, hi = obs.boxes[name]
+    size = hi - lo
+    return bool(size[2] >= min(size[0], size[1]))
+
+
+def _descends(skill: Skill) -> bool:
+    """Whether a grasp ``skill`` can come straight down onto its object (:attr:`Aim.descent`): one arm, and
+    one open piece anchored on the target (the way to the grasp point) before the hand closes. A grasp
+    whose open way has more pieces (the bowl's: over the rim, then down to it) is replayed as
+    demonstrated."""
+    first = skill.segments[0]
+    return (
+        skill.arms == 1
+        and first.anchor == "target"
+        and first.gripper < 0.5
+        and len(skill.segments) > 1
+        and skill.segments[1].gripper >= 0.5
+    )
 
 
 def _carry_height(

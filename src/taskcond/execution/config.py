@@ -55,10 +55,14 @@ class Hand:
     Attributes:
         housing: height (m) of the hand's housing above its fingertips' end-effector point: on the way to a
             grasp, only what stands above the housing is in the footprint's way (the fingers are narrower).
+        opening: widest gap (m) between the open fingers: a grasp of an object whose perceived box is
+            narrower than this both ways may close across either side
+            (:meth:`~taskcond.execution.approach.Approach._turn`).
     """
 
     housing: float
+    opening: float
 
 
-PANDA_HAND = Hand(housing=0.045)
+PANDA_HAND = Hand(housing=0.045, opening=0.08)
 """The Franka Panda's hand."""

@@ -162,7 +162,7 @@ class EventLog:
             EventKind.SET_DOWN,
             task,
             depth,
-            f"{task}: setting {held} down {drop * 100:.0f} cm first (the hand is freed for another task)",
+            f"{task}: setting {held} down {drop * 100:.0f} cm first (before the hand opens)",
             {"held": held, "drop": round(drop, 4)},
         )
 
@@ -178,12 +178,15 @@ class EventLog:
         approach: np.ndarray | None = None,
         choice: str = "",
         scale: np.ndarray | None = None,
+        descent: bool = False,
     ) -> None:
         """``turn``: rad the demonstration is turned about the target's vertical axis (a grasp from
         another side); ``aside``: (3,) m the place was moved from the demonstrated spot; each reported only
         when not 0; ``approach``: (3,) m, world frame, where the hand went first (the demonstrated start),
         or None; ``choice``: why the skill was demonstrated on other objects (empty: on these);
-        ``scale``: (3,) factors on its demonstrated offset from the target (reported when not ones)."""
+        ``scale``: (3,) factors on its demonstrated offset from the target (reported when not ones);
+        ``descent``: ``approach`` is a pre-grasp pose above the grasp point, from which the hand comes
+        straight down (an object-centred grasp), not the demonstrated start."""
         degrees = round(math.degrees(turn))
         moved = aside is not None and bool(np.any(aside))
         scaled = scale is not None and not np.allclose(scale, 1.0)
@@ -202,13 +205,24 @@ class EventLog:
                 else ""
             )
             + (f", {fmt_vector(aside)} aside of the demonstrated spot (taken)" if moved else "")
-            + (f", from its demonstrated start at {fmt_vector(approach)}" if approach is not None else ""),
+            + (
+                ""
+                if approach is None
+                else f", straight down from a pre-grasp pose above it at {fmt_vector(approach)}"
+                if descent
+                else f", from its demonstrated start at {fmt_vector(approach)}"
+            ),
             {"skill": skill.task_id, "target": target_name, "target_center": json_vector(target)}
             | ({"demonstration": skill.task_name, "similar": choice} if choice else {})
             | ({"offset_scale": json_vector(scale)} if scaled else {})
             | ({"turn_degrees": degrees} if degrees else {})
             | ({"aside": json_vector(aside)} if moved else {})
-            | ({"approach": json_vector(approach)} if approach is not None else {}),
+            | ({"approach": json_vector(approach)} if approach is not None else {})
+            | (
+                {"approach_kind": "pre-grasp above" if descent else "demonstrated start"}
+                if approach is not None
+                else {}
+            ),
         )
 
     def collision(

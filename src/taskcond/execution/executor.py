@@ -329,6 +329,7 @@ class Executor(Approach):
             aim.approach,
             aim.choice,
             aim.scale,
+            aim.descent,
         )
         if aim.approach is not None:
             first = aim.skill.segments[0]
@@ -367,7 +368,7 @@ class Executor(Approach):
             raise ExecutionError(
                 f"goal {fmt_vector(goal)} of {aim.task!r} is out of reach: {reason}", FailureKind.UNREACHABLE
             )
-        rollout = self._gen_dmp(seg, start, goal)
+        rollout = self._gen_dmp(seg, start, goal, aim.descent and seg is aim.skill.segments[0])
         self._tell(rollout, goal, monitor, seg.gripper >= 0.5)
         n = max(1, math.ceil(rollout.tau / self.world.dt - 1e-9))
         orientations = seg.orientation(np.arange(n + 1) / n, start_q, aim.turn)
@@ -390,13 +391,16 @@ class Executor(Approach):
                 self._step(back_to, orientations[k], seg.gripper)
         return made
 
-    def _gen_dmp(self, seg: Segment, start: np.ndarray, goal: np.ndarray) -> DMPRollout:
+    def _gen_dmp(
+        self, seg: Segment, start: np.ndarray, goal: np.ndarray, descent: bool = False
+    ) -> DMPRollout:
         """Alg. 2 line 5 (GenDMP): the piece's rollout from ``start`` to ``goal`` ((3k,) m, world frame),
         slowed for a longer approach than demonstrated (:meth:`_duration`), its forcing term never mirrored
-        or blown up (:func:`_conditioned`), keeping the past points line 10 backs up to."""
+        or blown up (:func:`_conditioned`; straight down for the open piece of an object-centred grasp,
+        ``descent``), keeping the past points line 10 backs up to."""
         tau = self._duration(seg, start, goal)
         return DMPRollout(
-            _conditioned(seg, start, goal), start, goal, tau=tau, history=self.config.backup_points
+            _conditioned(seg, start, goal, descent), start, goal, tau=tau, history=self.config.backup_points
         )
 
     def _adjust(
