@@ -235,3 +235,14 @@ def test_declared_objects_enter_the_combination_benchmark_with_their_roles() -> 
     names = {s.name for c in generated.combinations for s in c.steps}
     assert {"grasp rubber duck", "tilt jar", "move rubber duck into box"} <= names
     assert any(r.task == "move bowl into jar" for r in generated.refused)
+
+
+def test_the_scene_objects_an_instruction_may_name_follow_later_declarations() -> None:
+    """What the decomposition reads of the scene, built once per process, is built again when objects
+    are declared after it was first asked (a "soup can" is not the suite's "can")."""
+    from taskcond.worlds.kitchen import scene_objects
+
+    before, _ = scene_objects()
+    load_objects(EXAMPLES)
+    after, _ = scene_objects()
+    assert "soup can" not in before and {"soup can", "rubber duck", "jar"} <= set(after)

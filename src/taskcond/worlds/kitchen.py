@@ -19,7 +19,7 @@ from taskcond.primitives import get_primitive
 from taskcond.sim.assets import ROUND_CLASSES, shape_class
 from taskcond.sim.perception import EnvironmentInfo, Perception, PerceptionConfig
 from taskcond.sim.recording import VideoRecorder
-from taskcond.sim.scene import TABLE
+from taskcond.sim.scene import DECLARED, TABLE
 from taskcond.tasks.free import FreeTask
 
 REACH = 0.95
@@ -249,16 +249,22 @@ class KitchenWorld:
         return info["failure"] if terminated else None
 
 
-@cache
 def scene_objects(
     scene: str = "kitchen",
 ) -> tuple[tuple[str, ...], Callable[[str, tuple[str, ...]], str | None]]:
     """The object names of a scene (:data:`SCENES`) and what each primitive affords there (for
-    decomposition); built once per scene and process."""
+    decomposition); built once per scene and set of declared objects (:data:`~taskcond.sim.scene.DECLARED`)
+    in a process, so that an object declared later is among them."""
+    return _scene_objects(scene, tuple(DECLARED.values()))
+
+
+@cache
+def _scene_objects(
+    scene: str, declared: tuple[object, ...]
+) -> tuple[tuple[str, ...], Callable[[str, tuple[str, ...]], str | None]]:
     env = KitchenEnv(FreeTask("", scene=scene))
     try:
         world = KitchenWorld(env)
-        objects, affords = world.objects, world.affords
-        return objects, affords
+        return world.objects, world.affords
     finally:
         env.close()
