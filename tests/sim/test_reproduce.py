@@ -94,7 +94,7 @@ def test_reproduce_writes_the_table_and_resumes(library_dir, tmp_path):
     again = runner.invoke(app, args)
     assert again.exit_code == 0 and (out / "table4.jsonl").read_text() == before  # resumed: nothing run
     bad = runner.invoke(app, ["reproduce", "table9", "--out", str(out)])
-    assert bad.exit_code == 2 and "use one of table2, table3, table4 or all" in bad.output
+    assert bad.exit_code == 2 and "use one of table2, table3, table4, all or robosuite" in bad.output
 
 
 @pytest.fixture

@@ -131,9 +131,11 @@ ObjectsOption = Annotated[
 def _declare_objects(files: list[Path] | None) -> None:
     """Register the objects declared in ``files`` (``--objects``): one ``error:`` line naming the file and
     the entry, exit 2, for a bad declaration."""
+    if not files:
+        return  # the simulator (and its import banner) only when objects are declared
     from taskcond.sim.objects import ObjectError, load_objects
 
-    for path in files or ():
+    for path in files:
         try:
             load_objects(path)
         except ObjectError as exc:
