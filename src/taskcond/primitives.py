@@ -555,6 +555,25 @@ def unregister_primitive(id: str) -> None:
     _PATTERNS = _patterns()
 
 
+def read_declarations(path: Path, table: str, error: type[Exception]) -> list:
+    """The non-empty list of ``[[table]]`` entries of a TOML file (JSON: a ``table`` list) of user
+    declarations (primitives here, objects in :mod:`taskcond.sim.objects`).
+
+    Raises:
+        error: the file cannot be read or parsed, or has no such entries; one line naming the file.
+    """
+    try:
+        text = path.read_text(encoding="utf-8")
+        data = json.loads(text) if path.suffix.lower() == ".json" else tomllib.loads(text)
+    except (OSError, ValueError) as exc:
+        raise error(f"cannot read {table}s from {path}: {' '.join(str(exc).split())}") from None
+    entries = data.get(table) if isinstance(data, dict) else None
+    if not isinstance(entries, list) or not entries:
+        article = "an" if table[0] in "aeiou" else "a"
+        raise error(f"{path}: declare {table}s as [[{table}]] tables (JSON: {article} '{table}' list)")
+    return entries
+
+
 def load_primitives(path: str | Path) -> list[Primitive]:
     """Declare the primitives of a TOML or JSON file (see :func:`register_primitive` for the fields)::
 
@@ -572,14 +591,7 @@ def load_primitives(path: str | Path) -> list[Primitive]:
         TaskNameError: an unreadable file or a bad declaration, with the file's name.
     """
     path = Path(path)
-    try:
-        text = path.read_text(encoding="utf-8")
-        data = json.loads(text) if path.suffix.lower() == ".json" else tomllib.loads(text)
-    except (OSError, ValueError) as exc:
-        raise TaskNameError(f"cannot read primitives from {path}: {' '.join(str(exc).split())}") from None
-    entries = data.get("primitive") if isinstance(data, dict) else None
-    if not isinstance(entries, list) or not entries:
-        raise TaskNameError(f"{path}: declare primitives as [[primitive]] tables (JSON: a 'primitive' list)")
+    entries = read_declarations(path, "primitive", TaskNameError)
     fields = {"id", "pattern", "aliases", "title", "target", "movable", "achieves", "approach", "idempotent"}
     out = []
     for k, entry in enumerate(entries, start=1):

@@ -31,13 +31,12 @@ The file::
 from __future__ import annotations
 
 import hashlib
-import json
 import math
-import tomllib
 from pathlib import Path
 from typing import Any
 
 from taskcond.conditions import ConditionError, normalize_name
+from taskcond.primitives import read_declarations
 from taskcond.sim.assets import (
     AssetSpec,
     BlockSpec,
@@ -275,14 +274,7 @@ def load_objects(path: str | Path) -> list[DeclaredObject]:
             (number and name), what is wrong and what is valid; nothing of the file is declared then.
     """
     path = Path(path)
-    try:
-        text = path.read_text(encoding="utf-8")
-        data = json.loads(text) if path.suffix.lower() == ".json" else tomllib.loads(text)
-    except (OSError, ValueError) as exc:
-        raise ObjectError(f"cannot read objects from {path}: {' '.join(str(exc).split())}") from None
-    entries = data.get("object") if isinstance(data, dict) else None
-    if not isinstance(entries, list) or not entries:
-        raise ObjectError(f"{path}: declare objects as [[object]] tables (JSON: an 'object' list)")
+    entries = read_declarations(path, "object", ObjectError)
     declared: list[DeclaredObject] = []
     spare = sum(1 for d in DECLARED.values() if d.placement.xy in SPARE_SPOTS)
     hashes = hashlib.sha256(path.read_bytes())
