@@ -26,6 +26,7 @@ import numpy as np
 import pybullet as p
 
 from taskcond.envs.kitchen import KitchenEnv
+from taskcond.sim.arm import IKResult
 from taskcond.sim.franka import IK_DAMPING, IK_MAX_ITERATIONS, PYBULLET_IK_DAMPING, Franka
 from taskcond.tasks.oracle import run_episode, run_oracle
 from taskcond.tasks.registry import make, task_ids
@@ -205,9 +206,9 @@ IK_SETTINGS = {
 
 @dataclass(frozen=True)
 class IkCall:
-    """One call of ``Franka.ik`` in an oracle episode: target ``position`` (3,) m and unit ``orientation``
-    (4,) xyzw (world frame), the ``seed`` joints (7,) rad, and whether the seed was the previous call's
-    solution (``chained``; ``KitchenEnv.step`` seeds with the last solution)."""
+    """One call of ``Franka.solve_ik`` in an oracle episode: target ``position`` (3,) m and unit
+    ``orientation`` (4,) xyzw (world frame), the ``seed`` joints (7,) rad, and whether the seed was the
+    previous call's solution (``chained``; ``KitchenEnv.step`` seeds with the last solution)."""
 
     position: np.ndarray
     orientation: np.ndarray
@@ -216,30 +217,32 @@ class IkCall:
 
 
 class _IkRecorder:
-    """Stands in for ``robot.ik`` of one environment: solves with it and appends every call to ``calls``."""
+    """Stands in for ``robot.solve_ik`` of one environment: solves with it and appends every call to
+    ``calls``."""
 
     def __init__(self, env: KitchenEnv, calls: list[IkCall]) -> None:
-        self.robot, self.solve, self.calls = env.robot, env.robot.ik, calls
+        self.robot, self.solve, self.calls = env.robot, env.robot.solve_ik, calls
         self.last: np.ndarray | None = None
 
     def __call__(
         self, position: np.ndarray, orientation: np.ndarray, seed: np.ndarray | None = None
-    ) -> np.ndarray:
+    ) -> IKResult:
         start = self.robot.joint_positions() if seed is None else np.asarray(seed, dtype=float)
         chained = self.last is not None and np.array_equal(start, self.last)
         orientation = np.asarray(orientation, dtype=float)
         orientation = orientation / np.linalg.norm(orientation)
         self.calls.append(IkCall(np.array(position, dtype=float), orientation, start.copy(), chained))
-        self.last = self.solve(position, orientation, start)
-        return self.last
+        result = self.solve(position, orientation, start)
+        self.last = result.q
+        return result
 
 
 def record_ik_calls(tasks: tuple[str, ...] = IK_TASKS, episodes: int = 2) -> list[IkCall]:
-    """Every ``Franka.ik`` call of the oracle episodes (seeds ``0 .. episodes - 1``) of ``tasks``."""
+    """Every ``Franka.solve_ik`` call of the oracle episodes (seeds ``0 .. episodes - 1``) of ``tasks``."""
     calls: list[IkCall] = []
     for task_id in tasks:
         env = make(task_id)
-        env.robot.ik = _IkRecorder(env, calls)  # type: ignore[method-assign]
+        env.robot.solve_ik = _IkRecorder(env, calls)  # type: ignore[method-assign]
         for seed in range(episodes):
             run_episode(env, seed)
         env.close()
@@ -287,7 +290,7 @@ def ik_accuracy(calls: list[IkCall], repeats: int = 3) -> tuple[list[IkAccuracy]
             start = time.thread_time()
             for call in calls:
                 seed = qs[-1] if call.chained and qs else call.seed
-                qs.append(robot.ik(call.position, call.orientation, seed, damping, iterations))
+                qs.append(robot.solve_ik(call.position, call.orientation, seed, damping, iterations).q)
             cpu.append(time.thread_time() - start)
         solutions[name], times[name] = qs, 1e6 * statistics.median(cpu) / len(calls)
     at_limit = {

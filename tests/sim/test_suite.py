@@ -164,7 +164,7 @@ def test_ik_is_submillimetre_along_oracle_targets(task_id):
         for i in range(len(trajectory)):
             action = trajectory.action(i)
             orientation = action[3:7] / np.linalg.norm(action[3:7])
-            q = robot.ik(action[:3], orientation, seed=q)
+            q = robot.solve_ik(action[:3], orientation, seed=q).q
             assert np.all((robot.lower <= q) & (q <= robot.upper))
             pose = robot.fk(q)
             positions.append(pose.position)

@@ -4,9 +4,9 @@
 
 Action (8,) float: end-effector target position xyz (m, world frame), orientation quaternion xyzw, gripper
 command (< 0.5 open, ≥ 0.5 closed); a (7,) action gives the orientation as roll-pitch-yaw (rad) instead.
-Each step converts the target to joint positions with PyBullet IK (§III-E; a target equal to the previous
-step's keeps its solution) and runs :attr:`KitchenEnv.substeps` physics steps of 1/240 s under position
-control.
+Each step converts the target to joint positions with the arm's IK (:meth:`taskcond.sim.arm.Arm.solve_ik`,
+PyBullet's; §III-E; a target equal to the previous step's keeps its solution) and runs
+:attr:`KitchenEnv.substeps` physics steps of 1/240 s under position control.
 
 Observation (dict of float arrays): ``ee_position`` (3,), ``ee_orientation`` (4,), ``gripper_width``
 (1,) m, ``joint_positions`` (7,) rad, ``object_poses`` (n, 7) position + xyzw of the free objects in the
@@ -48,6 +48,7 @@ from gymnasium import spaces
 
 from taskcond.envs.protocol import Task
 from taskcond.envs.reader import ARM_DOFS, BlowupMonitor, Reading, StepReader
+from taskcond.sim.arm import command_gripper
 from taskcond.sim.franka import HOME, top_down
 from taskcond.sim.kinova import GEN3_HOME
 from taskcond.sim.scene import ARTICULATED, PHYSICS_HZ, KitchenScene, SceneConfig
@@ -198,9 +199,10 @@ class KitchenEnv(gym.Env):
             # limits (BENCHMARKS.md, "Simulation throughput")
             target = (x, y, z, qx / norm, qy / norm, qz / norm, qw / norm)
             if target != self._q_target:
-                self._q = self.robot.ik(target[:3], target[3:], seed=self._q)
+                self._q = self.robot.solve_ik(target[:3], target[3:], seed=self._q).q
                 self._q_target = target
-            self.robot.command(self._q, closed=gripper >= 0.5)
+            self.robot.set_joint_targets(self._q)
+            command_gripper(self.robot, closed=gripper >= 0.5)
             client = self.scene.client
             for _ in range(self.substeps):
                 p.stepSimulation(client)
@@ -237,10 +239,7 @@ class KitchenEnv(gym.Env):
                 return
             self._kq, self._k_target = result.q, target
             self.kinova.set_joint_targets(result.q)
-        if action[7] >= 0.5:
-            self.kinova.close_gripper()
-        else:
-            self.kinova.open_gripper()
+        command_gripper(self.kinova, closed=action[7] >= 0.5)
 
     def render(self, size: tuple[int, int] = RENDER_SIZE) -> np.ndarray:
         """RGB image (height, width, 3) uint8 of ``size`` (width, height) pixels from a fixed camera in front
@@ -271,10 +270,11 @@ class KitchenEnv(gym.Env):
         yaw = self.scene.yaw(name)
         self.scene.place(name, pos[:2], yaw, z=lift)
         ee, orn = grasp.pose(self.scene, name)
-        q = self.robot.ik(ee, orn, seed=np.array(HOME))
-        q = self.robot.ik(ee, orn, seed=q)
+        q = self.robot.solve_ik(ee, orn, seed=np.array(HOME)).q
+        q = self.robot.solve_ik(ee, orn, seed=q).q
         self.robot.reset(q, finger=grasp.width / 2 + 0.002)
-        self.robot.command(q, closed=True)
+        self.robot.set_joint_targets(q)
+        self.robot.close_gripper()
         self._q, self._q_target = q, None
         self.settle(0.3)
 

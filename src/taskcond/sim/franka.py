@@ -8,13 +8,17 @@ end-effector point is the ``panda_grasptarget`` link, about 1 cm above the finge
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass
+from functools import partial
 
 import numpy as np
 import pybullet as p
 import pybullet_data
+from numpy.typing import ArrayLike
 
+from taskcond.sim.arm import IKResult, command_gripper
 from taskcond.sim.description import GripperSpec
 
 ARM_JOINTS = (0, 1, 2, 3, 4, 5, 6)
@@ -34,20 +38,17 @@ FINGER_OPEN = 0.04
 """Finger joint position (m) of the open gripper; the opening between the pads is twice this."""
 IK_DAMPING = (1e-3,) * 9
 """Damping of PyBullet's damped least squares IK per degree of freedom (the 7 arm joints and the 2 fingers,
-whose Jacobian columns are zero). PyBullet's default, :data:`PYBULLET_IK_DAMPING`, converges slowly. On the
-6,251 IK calls of two oracle episodes of each of 13 tasks, each seeded with the previous solution
-(``benchmarks/bench_sim.py --ik``), the default with 100 iterations took 200-220 µs per call and met 96.0% of
-the targets inside the joint limits within 1 mm and 0.1° (99th percentile of the position error 11.8 mm);
-1e-3 with at most :data:`IK_MAX_ITERATIONS` iterations takes 14-23 µs (load-dependent) and meets 99.1%
-(99th percentiles 0.35 mm and 0.06°); the rest, missed by both, are LHT1's approach to the box lid at
-x ≈ 0.75 m, beyond the arm's reach in that orientation. Smaller damping (1e-4) overshoots
-at the edge of the reach: up to 48 mm off where 1e-3 is 28 mm off, on 7,600 targets logged with the old
-setting."""
+whose Jacobian columns are zero). PyBullet's default, :data:`PYBULLET_IK_DAMPING`, converges slowly and
+misses more targets; smaller damping overshoots at the edge of the reach (BENCHMARKS.md, "IK setting")."""
 PYBULLET_IK_DAMPING = (0.5,) * 9
 """PyBullet's IK damping when ``jointDamping`` is not given (measured: identical solutions)."""
 IK_MAX_ITERATIONS = 20
-"""Iteration cap of :meth:`Franka.ik`; most calls stop earlier at :data:`IK_RESIDUAL` (7,600 logged targets:
-12.2 µs per call with a cap of 10, 12.3 µs with 20, whose tail error is lower)."""
+"""Iteration cap of :meth:`Franka.solve_ik`; most calls stop earlier at :data:`IK_RESIDUAL` (BENCHMARKS.md,
+"IK setting")."""
+IK_POSITION_TOLERANCE = 1e-3
+"""m: an IK answer farther than this from the target is no ``success`` (the Kinova's tolerance)."""
+IK_ORIENTATION_TOLERANCE = 1e-2
+"""rad: an IK answer turned more than this from the target orientation is no ``success``."""
 IK_RESIDUAL = 1e-5
 """Position error (m) at which PyBullet's IK stops iterating (it checks the position only)."""
 
@@ -77,7 +78,8 @@ class EEPose:
 
 
 class Franka:
-    """A fixed-base Panda loaded from ``pybullet_data`` at ``base_position`` in client ``client``."""
+    """A fixed-base Panda loaded from ``pybullet_data`` at ``base_position`` in client ``client``; an
+    :class:`~taskcond.sim.arm.Arm`."""
 
     def __init__(self, client: int, base_position: tuple[float, float, float] = (0.0, 0.0, 0.0)) -> None:
         self.client = client
@@ -92,7 +94,7 @@ class Franka:
         self.lower = np.array([i[8] for i in info])
         self.upper = np.array([i[9] for i in info])
         self._limits = [(i[8], i[9]) for i in info]
-        """Per arm joint, its (lower, upper) limit (rad) as floats, for :meth:`ik`'s clipping."""
+        """Per arm joint, its (lower, upper) limit (rad) as floats, for :meth:`solve_ik`'s clipping."""
         gear = p.createConstraint(
             self.body,
             FINGER_JOINTS[0],
@@ -119,9 +121,9 @@ class Franka:
         """Position (m) of the base's centre of mass in its link frame, subtracted from IK targets."""
         self.gripper_closed = False
         self._arm_targets: list[float] | None = None
-        """Arm joint targets (rad) last sent to the motors by :meth:`command`."""
+        """Arm joint targets (rad) last sent to the motors by :meth:`set_joint_targets`."""
         self._finger_target: float | None = None
-        """Finger joint target (m) last sent to the motors by :meth:`command`."""
+        """Finger joint target (m) last sent to the motors by :meth:`open_gripper`/:meth:`close_gripper`."""
         self.reset(HOME)
 
     @property
@@ -157,41 +159,66 @@ class Franka:
             p.resetJointState(self.body, j, float(v), physicsClientId=self.client)
         for j in FINGER_JOINTS:
             p.resetJointState(self.body, j, finger, physicsClientId=self.client)
-        self.command(np.asarray(q, dtype=float), closed=finger < FINGER_OPEN / 2)
+        self.set_joint_targets(q)
+        command_gripper(self, closed=finger < FINGER_OPEN / 2)
 
     # ------------------------------------------------------------------------------------- control
-    def ik(
+    def solve_ik(
         self,
-        position: np.ndarray | Sequence[float],
-        orientation: np.ndarray | Sequence[float],
-        seed: np.ndarray | None = None,
+        position: ArrayLike,
+        orientation: ArrayLike | None = None,
+        seed: ArrayLike | None = None,
         damping: tuple[float, ...] = IK_DAMPING,
         max_iterations: int = IK_MAX_ITERATIONS,
-    ) -> np.ndarray:
+    ) -> IKResult:
         """Joint positions (7,) rad putting the end effector at ``position`` (3,) m with ``orientation``
-        (4,) xyzw, world frame; damped least squares IK (``damping`` per degree of freedom, at most
-        ``max_iterations`` iterations; the defaults are the measured :data:`IK_DAMPING` and
-        :data:`IK_MAX_ITERATIONS`) started from ``seed`` (default the current joints), clipped to the joint
-        limits. PyBullet's IK measures targets from the base's centre of mass, not its link frame, so the
-        target is shifted by that offset."""
+        (4,) xyzw (``None``: any), world frame (:meth:`taskcond.sim.arm.Arm.solve_ik`); damped least squares
+        IK (``damping`` per degree of freedom, at most ``max_iterations`` iterations; the defaults are the
+        measured :data:`IK_DAMPING` and :data:`IK_MAX_ITERATIONS`) started from ``seed`` (default the current
+        joints), clipped to the joint limits, so always ``within_limits``. PyBullet's IK measures targets
+        from the base's centre of mass, not its link frame, so the target is shifted by that offset. The
+        errors are measured with PyBullet's forward kinematics (:meth:`fk`) when first read. Never raises:
+        the Panda has no reach check."""
         seed = self.joint_positions() if seed is None else np.asarray(seed, dtype=float)
-        x, y, z = position
+        x, y, z = position  # type: ignore[misc]
         bx, by, bz = self._ik_bias
+        turn = {} if orientation is None else {"targetOrientation": tuple(map(float, orientation))}  # type: ignore[arg-type]
         q = p.calculateInverseKinematics(
             self.body,
             EE_LINK,
             (float(x) - bx, float(y) - by, float(z) - bz),
-            tuple(map(float, orientation)),
             currentPositions=(*seed.tolist(), 0.0, 0.0),
             jointDamping=damping,
             maxNumIterations=max_iterations,
             residualThreshold=IK_RESIDUAL,
             physicsClientId=self.client,
+            **turn,
         )
         # np.minimum(np.maximum(q, lower), upper) in Python floats (NaN passes through, as in numpy)
-        return np.array(
+        clipped = np.array(
             [lo if v < lo else hi if v > hi else v for v, (lo, hi) in zip(q[:7], self._limits, strict=True)]
         )
+        return IKResult(
+            clipped,
+            within_limits=True,
+            measure=partial(self._ik_errors, np.asarray(position, dtype=float), orientation),
+            position_tolerance=IK_POSITION_TOLERANCE,
+            orientation_tolerance=IK_ORIENTATION_TOLERANCE,
+        )
+
+    def _ik_errors(
+        self, target: np.ndarray, orientation: ArrayLike | None, q: np.ndarray
+    ) -> tuple[float, float]:
+        """Position (m) and orientation (rad) errors of the end effector at ``q`` against the target."""
+        pose = self.fk(q)
+        position_error = float(np.linalg.norm(pose.position - target))
+        if orientation is None:
+            return position_error, 0.0
+        want = np.asarray(orientation, dtype=float)
+        cosine = abs(float(np.dot(pose.orientation, want))) / (
+            float(np.linalg.norm(pose.orientation)) * float(np.linalg.norm(want))
+        )
+        return position_error, 2 * math.acos(min(1.0, cosine))
 
     def fk(self, q: np.ndarray) -> EEPose:
         """End-effector pose for joints ``q`` (7,), computed by resetting the joints and restoring them with
@@ -226,22 +253,41 @@ class Franka:
                 p.resetJointState(self.body, j, st[0], st[1], physicsClientId=self.client)
         return least
 
-    def command(self, q: np.ndarray, closed: bool) -> None:
-        """Position targets: arm joints ``q`` (7,) rad; gripper closed (pads pushed together with
-        :data:`FINGER_FORCE`) or open. Bullet keeps a motor's settings until they are set again, so
-        targets equal to the last ones sent are not sent again."""
-        targets = q.tolist()
-        if targets != self._arm_targets:
-            p.setJointMotorControlArray(
-                self.body,
-                ARM_JOINTS,
-                p.POSITION_CONTROL,
-                targetPositions=targets,
-                forces=ARM_FORCES,
-                positionGains=ARM_GAINS,
-                physicsClientId=self.client,
+    def set_joint_targets(self, q: ArrayLike) -> None:
+        """Position targets of the arm joints ``q`` (7,) rad (:meth:`taskcond.sim.arm.Arm.set_joint_targets`).
+        Bullet keeps a motor's settings until they are set again, so targets equal to the last ones sent are
+        not sent again.
+
+        Raises:
+            ValueError: ``q`` is outside the joint limits.
+        """
+        targets = np.asarray(q, dtype=float).tolist()
+        if targets == self._arm_targets:
+            return
+        if any(v < lo or v > hi for v, (lo, hi) in zip(targets, self._limits, strict=True)):
+            raise ValueError(
+                f"joint target {np.round(targets, 3).tolist()} is outside the Franka Panda joint limits"
             )
-            self._arm_targets = targets
+        p.setJointMotorControlArray(
+            self.body,
+            ARM_JOINTS,
+            p.POSITION_CONTROL,
+            targetPositions=targets,
+            forces=ARM_FORCES,
+            positionGains=ARM_GAINS,
+            physicsClientId=self.client,
+        )
+        self._arm_targets = targets
+
+    def open_gripper(self) -> None:
+        """Command the fingers open to :data:`FINGER_OPEN` (non-blocking)."""
+        self._command_fingers(closed=False)
+
+    def close_gripper(self) -> None:
+        """Command the finger pads pushed together with :data:`FINGER_FORCE` (non-blocking)."""
+        self._command_fingers(closed=True)
+
+    def _command_fingers(self, closed: bool) -> None:
         self.gripper_closed = closed
         target = 0.0 if closed else FINGER_OPEN
         if target == self._finger_target:

@@ -31,6 +31,7 @@ from __future__ import annotations
 import itertools
 import math
 from dataclasses import dataclass, field
+from functools import partial
 from pathlib import Path
 from typing import Literal
 from xml.sax.saxutils import quoteattr
@@ -40,6 +41,7 @@ import pybullet as p
 from numpy.typing import ArrayLike
 from scipy.spatial.transform import Rotation
 
+from taskcond.sim.arm import IKResult
 from taskcond.sim.assets import write_urdf
 from taskcond.sim.description import GripperSpec
 
@@ -463,27 +465,9 @@ def gen3_urdf_path(gripper: GripperGeometry = GEN3_GRIPPER) -> Path:
 # Controller
 
 
-@dataclass(frozen=True)
-class IKResult:
-    """An inverse-kinematics answer.
-
-    Attributes:
-        q: joint positions (7,), rad; continuous joints within π of the seed, limited ones in (-π, π].
-        position_error: distance (m) between the target and the tool centre point at ``q`` (DH FK).
-        orientation_error: angle (rad) between the target and achieved orientations; 0 if none was asked.
-        within_limits: ``q`` respects the limits of joints 2, 4, 6.
-        success: within limits and both errors under the solver's tolerances.
-    """
-
-    q: np.ndarray
-    position_error: float
-    orientation_error: float
-    within_limits: bool
-    success: bool
-
-
 class KinovaArm:
-    """A Kinova Gen3 7-DoF arm with the parallel gripper, loaded into a PyBullet client.
+    """A Kinova Gen3 7-DoF arm with the parallel gripper, loaded into a PyBullet client; an
+    :class:`~taskcond.sim.arm.Arm`.
 
     Joint commands use PyBullet position control at the published efforts and velocities. :meth:`step` and
     the methods whose name says ``move`` step the simulation (``p.stepSimulation`` on the arm's client, which
@@ -655,7 +639,8 @@ class KinovaArm:
         Plain (not null-space) IK, 100 iterations per round, started from ``seed`` (default: the current
         joints) and restarted from its own answer up to :attr:`ik_rounds` times; the best answer is returned
         and the arm's state restored. Errors are measured with the DH forward kinematics; a solution that is
-        not ``success`` (out of limits, or too far off) is still returned, for the caller to judge.
+        not ``success`` (out of limits, or too far off) is still returned, for the caller to judge. Its
+        continuous joints are within π of the seed, its limited ones in (-π, π].
 
         Args:
             position: world position (3,), m.
@@ -713,6 +698,17 @@ class KinovaArm:
             seed + (q - seed + np.pi) % (2 * np.pi) - np.pi,
             -((np.pi - q) % (2 * np.pi)) + np.pi,
         )
+        return IKResult(
+            q,
+            within_limits=self.within_limits(q),
+            measure=partial(self._ik_errors, target, rotation),
+            position_tolerance=self.position_tolerance,
+            orientation_tolerance=self.orientation_tolerance,
+        )
+
+    def _ik_errors(self, target: np.ndarray, rotation: Rotation | None, q: np.ndarray) -> tuple[float, float]:
+        """Position (m) and orientation (rad) errors of the tool centre point at ``q`` (DH forward kinematics)
+        against the target."""
         pose = self.forward_kinematics(q)
         position_error = float(np.linalg.norm(pose[:3, 3] - target))
         orientation_error = (
@@ -720,13 +716,7 @@ class KinovaArm:
             if rotation is None
             else float((rotation.inv() * Rotation.from_matrix(pose[:3, :3])).magnitude())
         )
-        within = self.within_limits(q)
-        success = (
-            within
-            and position_error <= self.position_tolerance
-            and orientation_error <= self.orientation_tolerance
-        )
-        return IKResult(q, position_error, orientation_error, within, success)
+        return position_error, orientation_error
 
     def reachable(self, position: ArrayLike, orientation: ArrayLike | None = None) -> bool:
         """Whether IK finds joint positions within limits for this world pose (see :meth:`solve_ik`)."""

@@ -223,7 +223,7 @@ class KitchenWorld:
         seed = robot.joint_positions()
         qs = []
         for position, orientation in zip(positions, orientations, strict=True):
-            seed = robot.ik(position, orientation, seed)
+            seed = robot.solve_ik(position, orientation, seed).q
             qs.append(seed)
         return robot.clearance(qs, bodies, SWEEP_WITHIN)
 
