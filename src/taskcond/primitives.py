@@ -555,15 +555,26 @@ def unregister_primitive(id: str) -> None:
     _PATTERNS = _patterns()
 
 
-def read_declarations(path: Path, table: str, error: type[Exception]) -> list:
+@dataclass(frozen=True)
+class Declarations:
+    """A user's declaration file as read: its ``[[table]]`` entries (each a dict when well formed; the
+    caller checks) and the file's bytes (to hash what a result was made with)."""
+
+    entries: list
+    raw: bytes
+
+
+def read_declarations(path: Path, table: str, error: type[Exception]) -> Declarations:
     """The non-empty list of ``[[table]]`` entries of a TOML file (JSON: a ``table`` list) of user
-    declarations (primitives here, objects in :mod:`taskcond.sim.objects`).
+    declarations (primitives here, objects in :mod:`taskcond.sim.objects`), the file read once.
 
     Raises:
         error: the file cannot be read or parsed, or has no such entries; one line naming the file.
     """
     try:
-        text = path.read_text(encoding="utf-8")
+        raw = path.read_bytes()
+        # newlines as Path.read_text translates them
+        text = raw.decode("utf-8").replace("\r\n", "\n").replace("\r", "\n")
         data = json.loads(text) if path.suffix.lower() == ".json" else tomllib.loads(text)
     except (OSError, ValueError) as exc:
         raise error(f"cannot read {table}s from {path}: {' '.join(str(exc).split())}") from None
@@ -571,7 +582,7 @@ def read_declarations(path: Path, table: str, error: type[Exception]) -> list:
     if not isinstance(entries, list) or not entries:
         article = "an" if table[0] in "aeiou" else "a"
         raise error(f"{path}: declare {table}s as [[{table}]] tables (JSON: {article} '{table}' list)")
-    return entries
+    return Declarations(entries, raw)
 
 
 def load_primitives(path: str | Path) -> list[Primitive]:
@@ -591,7 +602,7 @@ def load_primitives(path: str | Path) -> list[Primitive]:
         TaskNameError: an unreadable file or a bad declaration, with the file's name.
     """
     path = Path(path)
-    entries = read_declarations(path, "primitive", TaskNameError)
+    entries = read_declarations(path, "primitive", TaskNameError).entries
     fields = {"id", "pattern", "aliases", "title", "target", "movable", "achieves", "approach", "idempotent"}
     out = []
     for k, entry in enumerate(entries, start=1):

@@ -51,5 +51,5 @@ def test_joint_targets_outside_the_limits_are_refused(arm: Arm) -> None:
     q = np.array(arm.joint_positions())
     joint = int(np.flatnonzero(np.isfinite(arm.upper))[0])
     q[joint] = arm.upper[joint] + 0.1
-    with pytest.raises(ValueError, match="outside the .* joint limits"):
+    with pytest.raises(ValueError, match=r"outside the .* joint limits"):
         arm.set_joint_targets(q)

@@ -30,6 +30,7 @@ from taskcond.cli.common import (
     _sim_import,
     fail,
 )
+from taskcond.cli.evaluate import GoalMethodsOption, goal_methods, run_goal_benchmark
 
 if TYPE_CHECKING:
     from taskcond.combinations import Combination, Generated, Refusal
@@ -188,12 +189,7 @@ def eval_combinations(
     refused: Annotated[
         bool, typer.Option("--refused", help="Print the refused pairings with their reasons; run nothing.")
     ] = False,
-    method: Annotated[
-        list[str] | None,
-        typer.Option(
-            "--method", help="Methods to compare (repeatable): llm, llm+demo, env, none. Default llm."
-        ),
-    ] = None,
+    method: GoalMethodsOption = None,
     workers: WorkersOption = None,
     as_json: JsonOption = False,
     out: Annotated[
@@ -219,13 +215,9 @@ def eval_combinations(
     several wordings and judged by its template's goal (beyond the paper): a table per primitive by object,
     with a fallen rate. Pairings that cannot work are refused with a reason (--refused), not run."""
     from taskcond.combinations import select
-    from taskcond.execution.executor import METHODS
 
     _check_start(start)
-    methods = method or ["llm"]
-    bad = [m for m in methods if m not in METHODS]
-    if bad:
-        fail(f"--method {bad[0]!r}: use one of {', '.join(METHODS)}")
+    methods = goal_methods(method)
     generated = _generated(objects)
     _check_choices(primitive or [], obj or [], generated)
     chosen = select(generated.combinations, primitive or [], obj or [], max_steps)
@@ -235,8 +227,6 @@ def eval_combinations(
     if not chosen:
         fail("no generated task has all of the chosen --primitive, --object and --max-steps; see --list")
     _sim_import()
-    from taskcond.application.evaluate import jobs_for
-    from taskcond.cli.evaluate import _run_episodes
     from taskcond.combinations import write_instructions
 
     out = out or Path("runs") / f"eval-combinations{'' if start == 'task' else '-' + start}.jsonl"
@@ -244,13 +234,13 @@ def eval_combinations(
     write_instructions(
         generated.combinations, tasks_file
     )  # every task: a restriction keeps the configuration
-    jobs = jobs_for([c.id for c in chosen], methods, episodes, seed)
     settings = ExecutionSettings(
         workers, noise, llm, skills, backend, ray_address, planner, start, rerun=rerun, rerun_all=rerun_all
     )
-    records, config = _run_episodes(jobs, out, settings, "combinations", instructions=tasks_file.resolve())
-    if config["crashed"]:
-        raise typer.Exit(1)
+    ids = [c.id for c in chosen]
+    records, config = run_goal_benchmark(
+        "combinations", ids, methods, episodes, seed, out, tasks_file, settings
+    )
     summaries = {m: table([r for r in records if r["method"] == m], chosen) for m in methods}
     if as_json:
         report = {

@@ -339,6 +339,46 @@ def eval_command(kind: str):
     return command
 
 
+GoalMethodsOption = Annotated[
+    list[str] | None,
+    typer.Option("--method", help="Methods to compare (repeatable): llm, llm+demo, env, none. Default llm."),
+]
+"""``--method`` of the benchmarks judged by goal predicates (instructions, combinations)."""
+
+
+def goal_methods(method: list[str] | None) -> list[str]:
+    """The ``--method`` values of a goal benchmark (default llm); a one-line error for an unknown one."""
+    from taskcond.execution.executor import METHODS
+
+    methods = method or ["llm"]
+    bad = [m for m in methods if m not in METHODS]
+    if bad:
+        fail(f"--method {bad[0]!r}: use one of {', '.join(METHODS)}")
+    return methods
+
+
+def run_goal_benchmark(
+    desc: str,
+    ids: list[str],
+    methods: list[str],
+    episodes: int,
+    seed: int,
+    out: Path,
+    tasks_file: Path,
+    settings: ExecutionSettings,
+) -> tuple[list[dict], dict]:
+    """Run every id of ``tasks_file`` (an instructions file) in ``ids`` by every method for ``episodes``
+    seeds from ``seed`` into the results file ``out`` (:func:`_run_episodes`); returns the records and
+    the configuration, or exits 1 when an episode crashed (reported on stderr)."""
+    from taskcond.application.evaluate import jobs_for
+
+    jobs = jobs_for(ids, methods, episodes, seed)
+    records, config = _run_episodes(jobs, out, settings, desc, instructions=tasks_file.resolve())
+    if config["crashed"]:
+        raise typer.Exit(1)
+    return records, config
+
+
 # long: typer declares its 14 options in the signature
 def eval_instructions(
     file: Annotated[
@@ -350,12 +390,7 @@ def eval_instructions(
         ),
     ] = None,
     episodes: Annotated[int, typer.Option("--episodes", min=1, help="Seeded episodes per instruction.")] = 10,
-    method: Annotated[
-        list[str] | None,
-        typer.Option(
-            "--method", help="Methods to compare (repeatable): llm, llm+demo, env, none. Default llm."
-        ),
-    ] = None,
+    method: GoalMethodsOption = None,
     instruction: Annotated[
         list[str] | None, typer.Option("--instruction", help="Only these instruction ids (repeatable).")
     ] = None,
@@ -389,17 +424,13 @@ def eval_instructions(
     says whether the goal the plan itself implies held."""
     _sim_import()
     _declare_objects(objects)
-    from taskcond.application.evaluate import jobs_for, summarize
+    from taskcond.application.evaluate import summarize
     from taskcond.application.plans import instruction_scene
-    from taskcond.execution.executor import METHODS
     from taskcond.instructions import InstructionError, check_objects, default_file, load_instructions
     from taskcond.worlds.kitchen import scene_objects
 
     _check_start(start)
-    methods = method or ["llm"]
-    bad = [m for m in methods if m not in METHODS]
-    if bad:
-        fail(f"--method {bad[0]!r}: use one of {', '.join(METHODS)}")
+    methods = goal_methods(method)
     path = file or default_file()
     try:
         chosen = load_instructions(path)
@@ -416,15 +447,13 @@ def eval_instructions(
         if unknown:
             fail(f"no instruction {unknown[0]!r} in {path}; valid: {', '.join(ids)}")
         chosen = [i for i in chosen if i.id in instruction]
-    jobs = jobs_for([i.id for i in chosen], methods, episodes, seed)
     where = "" if start == "task" else f"-{start}"
     out = out or Path("runs") / f"eval-instructions{where}.jsonl"
     settings = ExecutionSettings(
         workers, noise, llm, skills, backend, ray_address, planner, start, rerun=rerun, rerun_all=rerun_all
     )
-    records, config = _run_episodes(jobs, out, settings, "instructions", instructions=path.resolve())
-    if config["crashed"]:
-        raise typer.Exit(1)
+    ids = [i.id for i in chosen]
+    records, config = run_goal_benchmark("instructions", ids, methods, episodes, seed, out, path, settings)
     rows = summarize(records)
     by_id = {i.id: i for i in chosen}
     for row in rows:

@@ -274,11 +274,11 @@ def load_objects(path: str | Path) -> list[DeclaredObject]:
             (number and name), what is wrong and what is valid; nothing of the file is declared then.
     """
     path = Path(path)
-    entries = read_declarations(path, "object", ObjectError)
+    read = read_declarations(path, "object", ObjectError)
     declared: list[DeclaredObject] = []
     spare = sum(1 for d in DECLARED.values() if d.placement.xy in SPARE_SPOTS)
-    hashes = hashlib.sha256(path.read_bytes())
-    for k, entry in enumerate(entries, start=1):
+    hashes = hashlib.sha256(read.raw)
+    for k, entry in enumerate(read.entries, start=1):
         label = f"object {k}" + (
             f" ({entry['name']!r})" if isinstance(entry, dict) and "name" in entry else ""
         )
