@@ -74,9 +74,22 @@ def _imports(path: Path, name: str) -> set[str]:
     return out
 
 
+def _parents(module: str, importer: str) -> set[str]:
+    """The packages that importing ``module`` initializes (``a.b`` for ``a.b.c``), but those ``importer``
+    lies in (a package's ``__init__`` importing its own modules is no cycle)."""
+    parts = module.split(".")
+    parents = {".".join(parts[:k]) for k in range(2, len(parts))}
+    return {q for q in parents if not importer.startswith(q + ".")}
+
+
 def _graph() -> dict[str, set[str]]:
     paths = {_module_name(p): p for p in ROOT.rglob("*.py")}
-    return {n: {d for d in _imports(p, n) if d in paths and d != n} for n, p in paths.items()}
+    graph = {}
+    for n, p in paths.items():
+        deps = _imports(p, n)
+        deps |= {q for d in deps for q in _parents(d, n)}
+        graph[n] = {d for d in deps if d in paths and d != n}
+    return graph
 
 
 def _layer(module: str) -> str | None:

@@ -4,16 +4,20 @@
 
 from __future__ import annotations
 
-from collections.abc import Callable
+import contextlib
+from collections.abc import Callable, Iterable
 from dataclasses import replace
 
 import numpy as np
 
+from taskcond.application.plans import plan_run
 from taskcond.execution.executor import METHODS, ConditionSource, SourceKind
 from taskcond.execution.skills import SkillLibrary
 from taskcond.execution.sources import EnvConditions, GroundedConditions, LLMConditions
 from taskcond.generator import ConditionGenerator
+from taskcond.llm.base import LLMError
 from taskcond.primitives import parse_task
+from taskcond.results import Job
 from taskcond.tasks.registry import get_task
 
 NOVEL_METHODS = ("llm", "llm+demo")
@@ -101,3 +105,41 @@ def make_source(
     if method not in METHODS:
         raise ValueError(f"unknown method {method!r}; valid: {', '.join(METHODS)}")
     return SOURCES[SourceKind(method)](library, llm, cache, threads)
+
+
+Progress = Callable[[list, str, str], Iterable]
+"""Wraps the items a loop goes through with a progress display: ``(items, description, unit)``."""
+
+
+def prefetch_conditions(
+    jobs: list[Job],
+    library: SkillLibrary | None,
+    llm: str | None,
+    steps: dict[tuple[str, str, int], tuple[str, ...]] | None = None,
+    novel_primitive: bool = False,
+    progress: Progress = lambda items, desc, unit: items,
+) -> None:
+    """Ask each LLM condition source (llm, llm+demo) of ``jobs`` once for every condition the jobs will
+    need, so that the workers find the answers in the LLM's cache. A job's steps are ``steps[job.key]``
+    (instructions, decomposed beforehand) or its suite task's plan; with ``novel_primitive``, each
+    episode's own draw of the examples (:func:`novel_primitive_source`), a draw without an answer left to
+    fail its episode.
+
+    Raises:
+        LLMError, TaskNameError, ConditionError, ValueError: the first source or condition that fails.
+    """
+    for method in [m for m in ("llm", "llm+demo") if any(j.method == m for j in jobs)]:
+        source = make_source(method, library, llm)  # type: ignore[arg-type]
+        mine = [j for j in jobs if j.method == method]
+        if novel_primitive:  # one draw per episode
+            for job in progress(mine, "conditions", "episode"):
+                drawn, _ = novel_primitive_source(source, job.task, job.seed)  # type: ignore[arg-type]
+                for name in plan_run(job.task).steps:
+                    with contextlib.suppress(LLMError):
+                        drawn.condition(name)
+            continue
+        names = {
+            s for j in mine for s in (steps.get(j.key, ()) if steps is not None else plan_run(j.task).steps)
+        }
+        for name in progress(sorted(names), "conditions", "task"):
+            source.condition(name)  # type: ignore[union-attr]

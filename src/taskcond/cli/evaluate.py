@@ -4,9 +4,9 @@ III and IV, the instruction benchmark).
 
 from __future__ import annotations
 
-import contextlib
 import json
 import sys
+from collections.abc import Iterable
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated
 
@@ -43,7 +43,7 @@ if TYPE_CHECKING:
     from taskcond.results import Job
 
 
-# long: the resume/progress/crash loop the three eval commands share; next: application/evaluate.py
+# long: the resume/progress/crash loop the eval commands share, its options checked and its bars drawn
 def _run_episodes(
     jobs, out: Path, settings: ExecutionSettings, desc: str, instructions: Path | None = None
 ) -> tuple[list[dict], dict]:
@@ -56,11 +56,10 @@ def _run_episodes(
     from tqdm import tqdm
 
     from taskcond.application.baseline import IMAGE_IL
-    from taskcond.application.condition_sources import make_source, novel_primitive_source
+    from taskcond.application.condition_sources import prefetch_conditions
     from taskcond.application.episode import PLANNERS
     from taskcond.application.evaluate import BACKENDS, cpu_count, evaluate, execution_config
     from taskcond.application.library import default_library_dir
-    from taskcond.application.plans import plan_run
     from taskcond.results import ConfigMismatchError, Job, ResultsFile
 
     if settings.backend not in BACKENDS:
@@ -88,33 +87,17 @@ def _run_episodes(
     done = results.done(Job.key_of)
     todo = [j for j in jobs if j.key not in done]
     steps = _instruction_steps(instructions, todo, settings.llm) if instructions else {}
-    llms = [m for m in ("llm", "llm+demo") if any(j.method == m for j in todo)]
-    for method in llms:  # every condition once here; the workers read the cache
-        try:
-            source = make_source(method, library, settings.llm)  # type: ignore[arg-type]
-            if settings.novel_primitive:  # one draw per episode; a draw without an answer fails its episode
-                for job in tqdm(
-                    [j for j in todo if j.method == method],
-                    desc="conditions",
-                    unit="episode",
-                    file=sys.stderr,
-                    disable=None,
-                ):
-                    drawn, _ = novel_primitive_source(source, job.task, job.seed)  # type: ignore[arg-type]
-                    for name in plan_run(job.task).steps:
-                        with contextlib.suppress(LLMError):
-                            drawn.condition(name)
-                continue
-            names = {
-                s
-                for j in todo
-                if j.method == method
-                for s in (steps.get(j.key, ()) if instructions else plan_run(j.task).steps)
-            }
-            for name in tqdm(sorted(names), desc="conditions", unit="task", file=sys.stderr, disable=None):
-                source.condition(name)  # type: ignore[union-attr]
-        except (LLMError, TaskNameError, ConditionError, ValueError) as exc:
-            fail(str(exc))
+    try:
+        prefetch_conditions(
+            todo,
+            library,
+            settings.llm,
+            steps if instructions else None,
+            settings.novel_primitive,
+            progress=_progress,
+        )
+    except (LLMError, TaskNameError, ConditionError, ValueError) as exc:
+        fail(str(exc))
     bar = tqdm(total=len(jobs), desc=desc, unit="episode", file=sys.stderr, disable=None)
     bar.update(len(jobs) - len(todo))
     crashed: list[dict] = []
@@ -153,6 +136,13 @@ def _run_episodes(
         typer.echo(f"{len(kept)} recording(s) in {settings.rerun} (open one with `rerun FILE.rrd`)", err=True)
     config = results.config
     return records, config.to_dict() | {"digest": config.digest, "crashed": len(crashed)}
+
+
+def _progress(items: list, desc: str, unit: str) -> Iterable:
+    """``items`` with a progress bar on stderr (none when stderr is no terminal)."""
+    from tqdm import tqdm
+
+    return tqdm(items, desc=desc, unit=unit, file=sys.stderr, disable=None)
 
 
 def _instruction_steps(
