@@ -38,7 +38,7 @@ from importlib import metadata
 from pathlib import Path
 from typing import Any
 
-from taskcond.llm.base import ChatRequest, ChatResponse, LLMError
+from taskcond.llm.base import ChatRequest, ChatResponse, LLMError, cpu_count
 from taskcond.llm.embedded import (
     BATCH,
     CONTEXTS,
@@ -137,7 +137,7 @@ class XLlamaCppBackend:
         self.model = model
         self.runtime = f"{RUNTIME}-{runtime_version()}"
         self.n_ctx = n_ctx
-        self.n_threads = n_threads or os.cpu_count() or 1
+        self.n_threads = n_threads or cpu_count()
         self.prefix_dir = Path(prefix_dir) if prefix_dir is not None else None
         self.prefix_bytes = prefix_bytes
         self.prefix_hits = 0
