@@ -71,26 +71,39 @@ def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item
 
 
 @pytest.fixture(scope="session")
-def embedded_backend():
+def embedded_backend(_project_only):
     """The real embedded llama.cpp backend with the default model on the default runtime (the first
     installed of xllamacpp and llama-cpp-python, or ``$TASKCOND_EMBEDDED_RUNTIME``), without the response
-    cache."""
-    from taskcond.llm.config import embedded_backend as make
+    cache: the very backend the command line builds in this session (its prefix states in the session's
+    cache), so that a test driving the command line in-process shares its loaded model
+    (:func:`taskcond.llm.config.embedded_backend`) instead of loading a second one."""
+    from taskcond.llm.config import BACKENDS, BackendKind, LLMConfig
 
-    backend = make()
+    backend = BACKENDS[BackendKind.EMBEDDED].build(LLMConfig.load(None))
     backend._load()
     return backend
 
 
+@pytest.fixture(autouse=True)
+def _one_model(request: pytest.FixtureRequest) -> None:
+    """A test marked ``llm`` holds the session's :func:`embedded_backend`, so that the command line it may
+    drive in-process gets that loaded model instead of loading another (one model per session; the
+    backend is shared while held, :func:`taskcond.llm.config.embedded_backend`)."""
+    if request.node.get_closest_marker("llm"):
+        request.getfixturevalue("embedded_backend")
+
+
 @pytest.fixture(scope="session")
 def cached_llm(embedded_backend, _project_only):
-    """:func:`embedded_backend` behind the session's response cache, the directory the command line's
-    answers go to as well (``<session cache>/responses``): for tests whose subject is what conditions do
-    rather than how the model writes them, the model answers each distinct request once per session (LHT1's
-    ``grasp bottle`` is asked by several tests). Every session asks it again: its cache directory is new."""
-    from taskcond.llm.cache import CachedBackend
+    """:func:`embedded_backend` behind the session's response cache, as the command line builds it
+    (``<session cache>/responses``): for tests whose subject is what conditions do rather than how the
+    model writes them, the model answers each distinct request once per session (LHT1's ``grasp bottle``
+    is asked by several tests). Every session asks it again: its cache directory is new."""
+    from taskcond.llm.config import LLMConfig, make_backend
 
-    return CachedBackend(embedded_backend, _project_only / "responses")
+    backend = make_backend(LLMConfig.load(None))
+    assert backend.backend is embedded_backend  # one loaded model
+    return backend
 
 
 def pytest_sessionfinish(session: pytest.Session) -> None:

@@ -379,10 +379,11 @@ def _small_request(question: str) -> ChatRequest:
 @pytest.fixture
 def prefix_backend(embedded_backend, tmp_path):
     """The session's embedded backend keeping its shared prefixes in ``tmp_path``, from an empty memory."""
+    kept = embedded_backend.prefix_dir
     embedded_backend.prefix_dir = tmp_path
     embedded_backend.forget()
     yield embedded_backend
-    embedded_backend.prefix_dir = None
+    embedded_backend.prefix_dir = kept
     embedded_backend.prefix_bytes = PREFIX_CACHE_BYTES
     embedded_backend.forget()
 

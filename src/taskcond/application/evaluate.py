@@ -7,7 +7,6 @@ the run's configuration (:class:`~taskcond.results.RunConfig`) and holds that co
 from __future__ import annotations
 
 import multiprocessing
-import os
 from collections import Counter, defaultdict
 from collections.abc import Callable, Iterable, Iterator
 from dataclasses import asdict
@@ -197,8 +196,3 @@ def summarize(records: Iterable[dict[str, Any]]) -> list[dict[str, Any]]:
             row["left_out"] = dict(left_out)
         rows.append(row)
     return rows
-
-
-def cpu_count() -> int:
-    """Cores available to this process."""
-    return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1

@@ -4,7 +4,6 @@ episodes it runs (:func:`run_job`).
 
 from __future__ import annotations
 
-import os
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -17,6 +16,7 @@ from taskcond.application.plans import instruction_plan, llm_decomposer, plan_ru
 from taskcond.execution.executor import ConditionSource, SourceKind
 from taskcond.execution.failures import FailureKind
 from taskcond.execution.skills import SkillLibrary
+from taskcond.llm.base import cpu_count
 from taskcond.results import Job
 from taskcond.viz.episode import EpisodeObserver
 
@@ -63,7 +63,7 @@ def llm_threads(workers: int, backend: str = "local") -> int | None:
     each other at every operation, so two processes that each use every core slow each other down."""
     if backend == "ray":
         return 1
-    return None if workers <= 1 else max(1, (os.cpu_count() or 1) // workers)
+    return None if workers <= 1 else max(1, cpu_count() // workers)
 
 
 def init_worker(args: WorkerArgs) -> None:

@@ -58,8 +58,9 @@ def _run_episodes(
     from taskcond.application.baseline import IMAGE_IL
     from taskcond.application.condition_sources import prefetch_conditions
     from taskcond.application.episode import PLANNERS
-    from taskcond.application.evaluate import BACKENDS, cpu_count, evaluate, execution_config
+    from taskcond.application.evaluate import BACKENDS, evaluate, execution_config
     from taskcond.application.library import default_library_dir
+    from taskcond.llm.base import cpu_count
     from taskcond.results import ConfigMismatchError, Job, ResultsFile
 
     if settings.backend not in BACKENDS:

@@ -7,10 +7,18 @@ with one text. Backends know nothing about task conditions; the condition genera
 
 from __future__ import annotations
 
+import os
 from dataclasses import asdict, dataclass, field
 from typing import Literal, Protocol
 
 Role = Literal["system", "user", "assistant"]
+
+
+def cpu_count() -> int:
+    """Cores this process may run on: its CPU affinity, which a container or ``taskset`` may set below
+    the machine's ``os.cpu_count()``. llama.cpp's threads wait for each other at every operation, so more
+    threads than cores slows every answer down."""
+    return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
 
 
 class LLMError(RuntimeError):

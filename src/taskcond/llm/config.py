@@ -24,6 +24,7 @@ from __future__ import annotations
 import importlib.util
 import os
 import tomllib
+import weakref
 from collections.abc import Callable
 from dataclasses import dataclass, replace
 from enum import StrEnum
@@ -128,21 +129,39 @@ class LLMConfig:
         return BACKENDS[BackendKind(kind)].resolve(cfg, table)
 
 
+_IN_USE: weakref.WeakValueDictionary[tuple, ChatBackend] = weakref.WeakValueDictionary()
+"""The embedded backends some caller still holds, by (runtime, model, threads, prefix directory)."""
+
+
 def embedded_backend(
     model: str = DEFAULT_EMBEDDED_MODEL,
     n_threads: int | None = None,
     prefix_dir: Path | None = None,
     runtime: str | None = None,
 ) -> ChatBackend:
-    """The embedded backend of ``model`` on ``runtime`` (:func:`embedded_runtime` when None), not loaded
-    yet and without the response cache."""
-    if embedded_runtime(runtime) == "xllamacpp":
-        from taskcond.llm.xllamacpp_backend import XLlamaCppBackend
+    """The embedded backend of ``model`` on ``runtime`` (:func:`embedded_runtime` when None), without the
+    response cache and loaded on its first request.
 
-        return XLlamaCppBackend(model, n_threads=n_threads, prefix_dir=prefix_dir)
-    from taskcond.llm.embedded import EmbeddedBackend
+    A process holds one model per configuration: while any caller still holds the backend of the same
+    runtime, model, threads and prefix directory, that backend is returned again instead of loading the
+    model (1.1 GB) a second time; it is dropped once nobody holds it. Its answers do not depend on the
+    requests before them (:meth:`~taskcond.llm.xllamacpp_backend.XLlamaCppBackend.chat`), so sharing it
+    changes no answer.
+    """
+    runtime = embedded_runtime(runtime)
+    key = (runtime, model, n_threads, None if prefix_dir is None else Path(prefix_dir))
+    backend = _IN_USE.get(key)
+    if backend is None:
+        if runtime == "xllamacpp":
+            from taskcond.llm.xllamacpp_backend import XLlamaCppBackend
 
-    return EmbeddedBackend(model, n_threads=n_threads, prefix_dir=prefix_dir)
+            backend = XLlamaCppBackend(model, n_threads=n_threads, prefix_dir=prefix_dir)
+        else:
+            from taskcond.llm.embedded import EmbeddedBackend
+
+            backend = EmbeddedBackend(model, n_threads=n_threads, prefix_dir=prefix_dir)
+        _IN_USE[key] = backend
+    return backend
 
 
 def _resolve_embedded(cfg: LLMConfig, table: dict) -> LLMConfig:

@@ -43,7 +43,7 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
-from taskcond.llm.base import ChatRequest, ChatResponse, LLMError
+from taskcond.llm.base import ChatRequest, ChatResponse, LLMError, cpu_count
 from taskcond.llm.models import DEFAULT_EMBEDDED_MODEL, get_embedded_model, model_path
 
 CONTEXTS = 2
@@ -198,7 +198,7 @@ class EmbeddedBackend:
         self.spec = get_embedded_model(model)
         self.model = model
         self.n_ctx = n_ctx
-        self.n_threads = n_threads or os.cpu_count() or 1
+        self.n_threads = n_threads or cpu_count()
         self.prefix_dir = Path(prefix_dir) if prefix_dir is not None else None
         self.prefix_bytes = prefix_bytes
         self.prefix_hits = 0

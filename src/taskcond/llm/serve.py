@@ -17,7 +17,7 @@ import signal
 import sys
 import threading
 
-from taskcond.llm.base import LLMError
+from taskcond.llm.base import LLMError, cpu_count
 from taskcond.llm.models import DEFAULT_EMBEDDED_MODEL, EMBEDDED_MODELS, get_embedded_model, model_path
 from taskcond.llm.xllamacpp_backend import load_xllamacpp
 
@@ -37,7 +37,7 @@ def serve(model: str, port: int, api_key: str, n_ctx: int = 4096, threads: int |
     p.api_keys = [api_key]
     p.n_ctx = n_ctx
     p.n_parallel = 1
-    p.cpuparams.n_threads = p.cpuparams_batch.n_threads = threads or os.cpu_count() or 1
+    p.cpuparams.n_threads = p.cpuparams_batch.n_threads = threads or cpu_count()
     p.ui = False
     p.verbosity = -1
     stop = threading.Event()

@@ -15,9 +15,11 @@ requests before it. The server's prompt cache keeps a slot's evaluated tokens be
 one per conversation, as the native backend's two contexts); llama.cpp's slot save and restore keep the
 shared prefix of a request on disk for the next process (the native backend's prefix states). Greedy
 answers without a grammar are decoded with llama.cpp's n-gram speculation on the prompt and the answer so
-far (``ngram-simple``: the same idea as the native backend's prompt-lookup drafts, Saxena 2023; speculative
-decoding, Leviathan et al. 2023); llama.cpp drafts every request, each draft checked by that request's own
-sampler and grammar. Figures in BENCHMARKS.md, "Embedded runtimes".
+far (``ngram-mod``: a hashed map from the last :data:`DRAFT_MATCH` tokens to the next, drafting
+:data:`DRAFT_MIN` to :data:`DRAFT_MAX` tokens and fewer after drafts that were mostly rejected; the same idea
+as the native backend's prompt-lookup drafts, Saxena 2023; speculative decoding, Leviathan et al. 2023);
+llama.cpp drafts every request, each draft checked by that request's own sampler and grammar. Figures in
+BENCHMARKS.md, "Embedded runtimes".
 """
 
 from __future__ import annotations
@@ -38,7 +40,7 @@ from importlib import metadata
 from pathlib import Path
 from typing import Any
 
-from taskcond.llm.base import ChatRequest, ChatResponse, LLMError
+from taskcond.llm.base import ChatRequest, ChatResponse, LLMError, cpu_count
 from taskcond.llm.embedded import (
     BATCH,
     CONTEXTS,
@@ -53,8 +55,14 @@ from taskcond.llm.models import DEFAULT_EMBEDDED_MODEL, get_embedded_model, mode
 
 RUNTIME = "xllamacpp"
 """The runtime's name in response-cache keys and results (``embedded:MODEL@xllamacpp-VERSION``)."""
-DRAFT_MAX = 48
-"""Most tokens one n-gram draft proposes (the native backend's :data:`~taskcond.llm.embedded.DRAFT_MAX`)."""
+DRAFT_MATCH = 8
+"""Tokens an n-gram draft's key matches: a long key drafts where an answer copies its prompt (a generation
+answer repeats its own example) and seldom on new text (a chain of thought), where a rejected draft costs
+a batch evaluation."""
+DRAFT_MIN, DRAFT_MAX = 4, 16
+"""Fewest and most tokens one draft proposes; a draft and the token before it fit one batch
+(:data:`~taskcond.llm.embedded.BATCH`). Chosen by measurement against ``ngram-simple`` with drafts of 48
+(BENCHMARKS.md, "Embedded runtimes")."""
 LIBGOMP_HINT = (
     "xllamacpp needs the system library libgomp.so.1 (GNU OpenMP); install it with "
     "'apt-get install libgomp1' (Debian, Ubuntu) or 'dnf install libgomp' (Fedora, RHEL)"
@@ -137,7 +145,7 @@ class XLlamaCppBackend:
         self.model = model
         self.runtime = f"{RUNTIME}-{runtime_version()}"
         self.n_ctx = n_ctx
-        self.n_threads = n_threads or os.cpu_count() or 1
+        self.n_threads = n_threads or cpu_count()
         self.prefix_dir = Path(prefix_dir) if prefix_dir is not None else None
         self.prefix_bytes = prefix_bytes
         self.prefix_hits = 0
@@ -188,9 +196,10 @@ class XLlamaCppBackend:
         p.verbosity = -1
         if self.draft:
             sp = p.speculative
-            sp.types = [xllamacpp.common_speculative_type.COMMON_SPECULATIVE_TYPE_NGRAM_SIMPLE]
-            sp.ngram_simple.size_n = 3
-            sp.ngram_simple.size_m = DRAFT_MAX
+            sp.types = [xllamacpp.common_speculative_type.COMMON_SPECULATIVE_TYPE_NGRAM_MOD]
+            sp.ngram_mod.n_match = DRAFT_MATCH
+            sp.ngram_mod.n_min = DRAFT_MIN
+            sp.ngram_mod.n_max = DRAFT_MAX
         try:
             self._server = xllamacpp.Server(p)
         except Exception as exc:
