@@ -12,12 +12,13 @@ the primitives after it keep the heading the hand has.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterator
+from collections.abc import Iterator
 from dataclasses import dataclass
 
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from taskcond.conditions import Relation
 from taskcond.primitives import parse_task
 from taskcond.worlds.robosuite.scene import ROUND, RobosuiteScene
 
@@ -44,6 +45,8 @@ CLEARANCE = 0.06
 """Clearance (m) of a carried object above what it is carried over."""
 DROP = 0.02
 """Height (m) above its place at which a carried object is let go."""
+CARRIES = (Relation.INSIDE, Relation.ABOVE)
+"""The relations a carry oracle places its object in with another: into a bin, on top of a cube."""
 
 
 @dataclass(frozen=True)
@@ -76,6 +79,13 @@ SINGLE_OBJECTS = {
     "PickPlaceCan": "can",
 }
 """robosuite's single-object PickPlace environments and their object."""
+TALLEST_FIRST = ("cereal", "milk", "can", "bread")
+"""The four-object PickPlace's objects in the order they are put away: the tallest first (robosuite's
+boxes: cereal 15 cm, milk 14.4 cm, can 8 cm, bread 4.8 cm). A hand coming straight down onto an object
+sweeps the space above it down to its grip, a few centimetres below the object's top; a neighbour taller
+than that is in its way. Taken tallest first, every object left beside the one grasped is lower than it
+(in robosuite's order, milk, bread, cereal, can, the hand descending on the bread met the top of the
+cereal box standing beside it and knocked it over)."""
 
 TASKS: dict[str, RobosuiteTask] = {
     t.id: t
@@ -92,7 +102,7 @@ TASKS: dict[str, RobosuiteTask] = {
         ),
         RobosuiteTask(
             "PickPlace",
-            tuple(s for obj in ("milk", "bread", "cereal", "can") for s in _pick_place(obj)),
+            tuple(s for obj in TALLEST_FIRST for s in _pick_place(obj)),
             "put each of the four objects into its bin",
         ),
     )
@@ -230,28 +240,34 @@ def carry(scene: RobosuiteScene, obj: str, place: str, quat: np.ndarray, inside:
 
 
 def oracle(scene: RobosuiteScene, task_name: str, quat: np.ndarray) -> Iterator[Command]:
-    """The scripted commands of one primitive task from the scene's current state; ``quat`` (4,) xyzw is the
-    hand pointing down (:func:`down`) at the task's start: a grasp turns it across its object, the other
-    primitives keep the hand's current heading.
+    """The scripted commands of one primitive task from the scene's current state, chosen by what the
+    primitive achieves (:attr:`~taskcond.primitives.Primitive.achieves`), never by its id: a grasp
+    (:attr:`~taskcond.primitives.Primitive.grasps`), a let-go
+    (:attr:`~taskcond.primitives.Primitive.lets_go`), a carry that places its object inside or above
+    another (:attr:`~taskcond.primitives.Primitive.places`). ``quat`` (4,) xyzw is the hand pointing down
+    (:func:`down`) at the task's start: a grasp turns it across its object, the other primitives keep the
+    hand's current heading.
 
     Raises:
-        ValueError: a primitive no oracle here performs.
+        ValueError: a primitive no oracle here performs (its effect is none of these).
     """
     task = parse_task(task_name)
-    held = down(scene)
-    plans: dict[str, Callable[[], Iterator[Command]]] = {
-        "grasp": lambda: grasp(scene, task.objects[0], quat),
-        "release": lambda: release(scene, task.objects[0], held),
-        "move_into": lambda: carry(scene, *task.objects, held, inside=True),
-        "move_on_top": lambda: carry(scene, *task.objects, held, inside=False),
-    }
-    if task.primitive.id not in plans:
-        raise ValueError(f"no robosuite oracle for {task.name!r}; oracles: {', '.join(plans)}")
-    return plans[task.primitive.id]()
+    primitive = task.primitive
+    if primitive.grasps:
+        return grasp(scene, task.objects[0], quat)
+    if primitive.lets_go:
+        return release(scene, task.objects[0], down(scene))
+    if primitive.places in CARRIES and len(task.objects) == 2:
+        return carry(scene, *task.objects, down(scene), inside=primitive.places is Relation.INSIDE)
+    raise ValueError(
+        f"no robosuite oracle for {task.name!r}; oracles: a grasp, a let-go, a carry placing an object "
+        f"{' or '.join(str(r) for r in CARRIES)} another"
+    )
 
 
 __all__ = [
     "SINGLE_OBJECTS",
+    "TALLEST_FIRST",
     "TASKS",
     "Command",
     "RobosuiteTask",
