@@ -4,7 +4,9 @@ box or the top drawer, :func:`taskcond.combinations.generate`) from random start
 plan (``grasp A`` / ``grasp A, move A into B, release A``; no LLM decomposition), judged by the
 template's goal predicates, with the objects that fell over.
 
-Run: ``.venv/bin/python benchmarks/bench_grasps.py [--episodes N] [--seed S] [--cells grasp,move_into]``.
+Run: ``.venv/bin/python benchmarks/bench_grasps.py [--episodes N] [--seed S] [--cells grasp,move_into]``;
+``--cells move_on_top,move_in_front``: the moves on top of and in front of every target, as ``grasp A``,
+the move, ``release A``, judged by the combination's goal.
 Conditions from the demonstrations (method env), the default skill library, perception noise σ = 5 mm.
 Prints one markdown row per cell (successes, fallen, failures) and the totals.
 """
@@ -24,6 +26,8 @@ from taskcond.sim.roles import scene_roles
 
 TARGETS = ("box", "top drawer")
 """The move-into targets measured (the slice of the issue's measurement)."""
+PLACES = ("move_on_top", "move_in_front")
+"""The other placing primitives, measured on every target the generator allows (``--cells``)."""
 
 
 def _cells(kinds: set[str]) -> list[tuple[str, tuple[str, ...], tuple[str, ...]]]:
@@ -39,6 +43,8 @@ def _cells(kinds: set[str]) -> list[tuple[str, tuple[str, ...], tuple[str, ...]]
         elif step.primitive == "move_into" and step.target in TARGETS and "move_into" in kinds:
             steps = (f"grasp {a}", step.name, f"release {a}")
             cells.append((step.name, steps, (f"{a} inside {step.target}", "gripper not grasping")))
+        elif step.primitive in PLACES and step.primitive in kinds:
+            cells.append((step.name, (f"grasp {a}", step.name, f"release {a}"), tuple(map(str, combo.goal))))
     return cells
 
 

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import json
 
 import numpy as np
@@ -37,7 +38,7 @@ from taskcond.execution.skills import (
     split_points,
     target_object,
 )
-from taskcond.execution.sources import EnvConditions, condition_from_environment
+from taskcond.execution.sources import EnvConditions, condition_from_environment, start_place
 from taskcond.execution.world import Observation, Touch
 
 
@@ -204,17 +205,35 @@ def test_condition_from_environment_keeps_changes_and_states_of_relevant_objects
     }
     touched = {Collision("gripper", "bottle"), Collision("cube", "table")}
     cond = condition_from_environment("move bottle into box", before, after, touched)
-    assert set(cond.pre_conditions) == {
-        GripperState("bottle"),
-        ContainerState("box", True),
-        SpatialRelation("bottle", Relation.IN_FRONT_OF, "box"),
-    }
+    assert set(cond.pre_conditions) == {GripperState("bottle"), ContainerState("box", True)}
     assert set(cond.post_conditions) == {
         GripperState("bottle"),
         ContainerState("box", True),
         SpatialRelation("bottle", Relation.INSIDE, "box"),
     }
     assert cond.collisions == (Collision("bottle", "gripper"),)
+
+
+def test_the_placed_objects_start_is_no_pre_condition_of_a_move() -> None:
+    """Where the demonstration started the carried object (``bottle in front of box``) is not a
+    pre-condition of the move, in a new derivation and in a condition stored before the rule; Alg. 1 would
+    otherwise raise ``move mug in front of box`` from any other start. Other objects' relations and the
+    gripper's stay."""
+    start = SpatialRelation("bottle", Relation.IN_FRONT_OF, "box")
+    assert start_place(start, "move bottle into box")
+    assert start_place(SpatialRelation("box", Relation.BELOW, "bottle"), "move bottle on top of box")
+    assert not start_place(SpatialRelation("bottle", Relation.IN_FRONT_OF, "gripper"), "move bottle into box")
+    assert not start_place(start, "grasp bottle")
+    assert not start_place(SpatialRelation("box", Relation.IN_FRONT_OF, "bottle"), "open box")
+    demo = _grasp_demo("move bottle into box")
+    pre = (GripperState("bottle"), ContainerState("box", True), start)
+    stored = TaskCondition(
+        "move bottle into box", ("bottle", "box", "gripper"), pre, (GripperState("bottle"),)
+    )
+    library = SkillLibrary()
+    library.add(learn_skill(dataclasses.replace(demo, condition=stored)))
+    cond = EnvConditions(library).condition("move mug into box")
+    assert cond.pre_conditions == (GripperState("mug"), ContainerState("box", True))
 
 
 def test_env_conditions_are_renamed_to_the_task_objects() -> None:

@@ -13,6 +13,7 @@ from itertools import pairwise
 import numpy as np
 
 from taskcond.conditions import Collision, ContainerState, GripperState, Predicate, TaskCondition
+from taskcond.execution.approach import Aim
 from taskcond.execution.config import ExecutionConfig
 from taskcond.execution.events import EventKind
 from taskcond.execution.executor import Executor
@@ -259,6 +260,21 @@ def test_alg2_backs_up_and_moves_the_goal_away_from_an_unallowed_contact():
     # the movement goes on towards its goal moved by the shift (Alg. 2 lines 12-13)
     k = next(i for i, g in enumerate(goals) if np.allclose(g, collisions[0].data["goal"], atol=2e-4))
     assert k > 0 and np.allclose(goals[k] - goals[k - 1], shift, atol=2e-4)
+
+
+def test_a_contact_with_the_target_of_a_move_in_front_moves_the_goal_away_from_the_target():
+    """Alg. 2 line 12 with goalPos the place beside the box for a move in front of it (the box's centre
+    would shift the goal into the box), and the box's centre for a move into it."""
+    world = TableTopWorld(hand=(0.3, -0.2, 0.13), holding="bottle")
+    executor = Executor(world, _library(), "env", TableConditions(), CONFIG)
+    box = world.centers["box"]
+    place = box - [0.15, 0.0, 0.0] + [0.0, 0.0, GRASP_HEIGHT]  # the hand's goal, in front of the box
+    touch = Touch("bottle", "box", box - [0.06, 0.0, 0.0])  # the bottle against the box's front
+    skill = next(iter(_library().skills.values()))
+    beside = Aim("move bottle in front of box", skill, "box", box)
+    into = Aim("move bottle into box", skill, "box", box)
+    assert executor._goal_shift(touch, place, beside, set())[0] < 0  # away from the box
+    assert executor._goal_shift(touch, place, into, set())[0] > 0  # towards its centre
 
 
 def test_the_planner_opens_the_box_before_the_hand_is_full():

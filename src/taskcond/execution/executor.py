@@ -64,6 +64,7 @@ from taskcond.conditions import (
     ContainerState,
     GripperState,
     Predicate,
+    Relation,
     TaskCondition,
     about_gripper_place,
     is_gripper,
@@ -430,8 +431,13 @@ class Executor(Approach):
         instead: its perceived centre now plus the end effector's remaining way to the goal. That puts the
         carried object over the target's centre; ``goalPos − collPos`` would move it by the whole distance
         from the rim to the centre, to the opposite rim.
+
+        A move in front of its target (:attr:`~taskcond.primitives.Primitive.places` ``in front of``) puts
+        the object beside the target, not at its centre: its goalPos is the arm's goal, the place, so that a
+        contact with the target moves the goal away from it (issue 31: with the box's centre, each contact
+        with the box moved the goal 5 cm further into it, and the mug was pushed over against it).
         """
-        target = aim.target
+        target = None if _beside(aim.task) else aim.target
         carried = sorted(held)
         if target is not None and aim.target_name in (touch.a, touch.b) and carried:
             centre = self.world.observe().centers.get(carried[0])
@@ -506,6 +512,11 @@ def _done_already(task: str, cond: TaskCondition, obs: Observation) -> bool:
     post-conditions all hold in ``obs``."""
     idempotent = parse_task(task).primitive.idempotent
     return bool(idempotent and cond.post_conditions and not _missing(cond.post_conditions, obs))
+
+
+def _beside(task: str) -> bool:
+    """``task`` places its object beside its target rather than on or in it (a move in front of)."""
+    return parse_task(task).primitive.places is Relation.IN_FRONT_OF
 
 
 def _still_touched(task: str, obs: Observation) -> bool:

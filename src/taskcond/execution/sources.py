@@ -5,6 +5,7 @@ LLM (§III-B), or the LLM checked against the demonstration (:mod:`taskcond.grou
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Iterable
 
 from taskcond.conditions import (
@@ -12,12 +13,27 @@ from taskcond.conditions import (
     ContainerState,
     GripperState,
     Predicate,
+    SpatialRelation,
     TaskCondition,
+    about_gripper_place,
 )
 from taskcond.execution.skills import SkillError, SkillLibrary
 from taskcond.generator import ConditionGenerator, GenerationResult
 from taskcond.grounding import ConditionRepair, DemoEvidence, Grounded, ground
 from taskcond.primitives import parse_task
+
+
+def start_place(pred: Predicate, task_name: str) -> bool:
+    """``pred`` is a spatial relation of the object that ``task_name`` places (the first object of a move
+    into, on top of or in front of: the bottle of ``move bottle into box``) with another object, not a
+    gripper: where the demonstration happened to start it. The carry takes the object from wherever it
+    stands, so such a relation is no pre-condition (beyond the paper's FromEnv, issue 31: kept as one,
+    ``bottle in front of box`` made Alg. 1 raise ``move bottle in front of box`` from a random start, a
+    second carry through the clutter that knocked objects over)."""
+    task = parse_task(task_name)
+    if task.primitive.places is None or not isinstance(pred, SpatialRelation) or about_gripper_place(pred):
+        return False
+    return task.objects[0] in (pred.subject, pred.reference)
 
 
 def condition_from_environment(
@@ -31,7 +47,8 @@ def condition_from_environment(
 
     Relevant objects are the task's objects and the gripper(s). Predicates that mention anything else
     are ignored. Pre-conditions: the object states (gripper, containers) before the demonstration, and
-    the spatial relations that held before and no longer hold after it. Post-conditions: the object states
+    the spatial relations that held before and no longer hold after it, except the placed object's start
+    (:func:`start_place`). Post-conditions: the object states
     after it, and the spatial relations that hold after and did not before. Collisions: every pair of
     bodies that touched during the demonstration and involves a relevant object.
 
@@ -54,7 +71,7 @@ def condition_from_environment(
     def ordered(preds: set[Predicate]) -> list[Predicate]:
         return sorted((p for p in preds if keep(p)), key=lambda p: (not state(p), str(p)))
 
-    pre = ordered({p for p in before if state(p) or p not in after})
+    pre = ordered({p for p in before if state(p) or (p not in after and not start_place(p, task.name))})
     post = ordered({p for p in after if state(p) or p not in before})
     collisions = sorted({c for c in touched if c.a in relevant or c.b in relevant}, key=str)
     return TaskCondition(
@@ -67,7 +84,9 @@ def condition_from_environment(
 
 
 class EnvConditions:
-    """The FromEnv conditions stored with the skills, renamed to the task's objects."""
+    """The FromEnv conditions stored with the skills, renamed to the task's objects, without the placed
+    object's start among the pre-conditions (:func:`start_place`; a library learned before that rule keeps
+    it)."""
 
     name = "env"
 
@@ -83,7 +102,9 @@ class EnvConditions:
             )
         demo = parse_task(skill.task_name)
         mapping = dict(zip(demo.objects, task.objects, strict=False))
-        return skill.condition.rename(mapping, task.name)
+        cond = skill.condition.rename(mapping, task.name)
+        pre = tuple(p for p in cond.pre_conditions if not start_place(p, task.name))
+        return dataclasses.replace(cond, pre_conditions=pre)
 
 
 class LLMConditions:
@@ -197,4 +218,5 @@ __all__ = [
     "LLMConditions",
     "condition_from_environment",
     "demonstration_evidence",
+    "start_place",
 ]
