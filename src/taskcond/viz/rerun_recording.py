@@ -73,10 +73,10 @@ CAMERA_GAP = 0.5
 """Least simulated seconds between two camera images."""
 CAMERA_SIZE = (320, 240)
 """Camera image size, (width, height) pixels."""
-TRUE_EVERY = 30
+TRUE_EVERY = 60
 """Control steps between two logs of the noise-free boxes of what can move and two checks of the ground
 truth's relations and states (:meth:`RerunRecording._watched`)."""
-FLUSH_EVERY = 30
+FLUSH_EVERY = 90
 """Control steps whose end-effector poses, gripper commands and contacts are sent in one batch."""
 PATH_STRIDE = 3
 """Every how many control steps a point of an arm's path is kept in ``world/arms/<arm>/path``."""
