@@ -4,6 +4,7 @@ episode's replay reproduces it. Real PyBullet, a one-skill library, a few second
 
 from __future__ import annotations
 
+import dataclasses
 import json
 
 import numpy as np
@@ -23,7 +24,7 @@ from taskcond.conditions import GripperState, TaskCondition
 from taskcond.execution.skills import SkillLibrary
 from taskcond.execution.sources import EnvConditions
 from taskcond.results import Job, ResultsFile
-from taskcond.viz.captions import FPS, HOLD_SECONDS
+from taskcond.viz.captions import FPS, HOLD_SECONDS, outcome_lines
 from taskcond.viz.rerun_recording import ALLOWED, UNALLOWED, RerunRecording, read_recording
 
 pytestmark = pytest.mark.sim
@@ -111,6 +112,16 @@ def test_every_event_of_the_trace_is_a_log_line_at_its_time(recorded) -> None:
     assert any(kind == "collision" for kind, _, _ in trace)
     outcome = _texts(data["/events/outcome"])[0]
     assert ("SUCCEEDED" in outcome) == bool(result.success)
+
+
+def test_the_outcome_names_what_lies_knocked_over_success_or_not(recorded) -> None:
+    """The last frame and the recording's outcome say which objects lie knocked over at the end, also
+    when the goal holds."""
+    _, result, _ = recorded
+    assert not any("knocked over" in line.text for line in outcome_lines(result))
+    for success in (True, False):
+        fallen = dataclasses.replace(result, success=success, fallen=["bottle", "can"])
+        assert outcome_lines(fallen)[-1].text == "knocked over: bottle, can"
 
 
 def test_goals_alg2_moved_and_the_contacts_agree_with_the_trace(recorded) -> None:

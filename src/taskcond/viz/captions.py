@@ -139,13 +139,14 @@ class Narrator:
 
 def outcome_lines(result: EpisodeResult) -> list[Line]:
     """How the episode ended: success, or the failure kind and its reason, and the goal predicates that do
-    not hold."""
+    not hold; either way the objects that lie knocked over at the end."""
+    fallen = [Line(f"knocked over: {', '.join(result.fallen)}", RED)] if result.fallen else []
     if result.success:
-        return [Line(f"SUCCEEDED in {result.sim_seconds:.1f} s", GREEN)]
+        return [Line(f"SUCCEEDED in {result.sim_seconds:.1f} s", GREEN), *fallen]
     lines = [Line(f"FAILED ({result.failure}): {result.reason}", RED)]
     if result.goal_missing and result.failure != "not_succeeded":
         lines.append(Line(f"goal not reached: {', '.join(result.goal_missing)}", RED))
-    return lines
+    return lines + fallen
 
 
 @cache
