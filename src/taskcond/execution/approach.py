@@ -230,7 +230,7 @@ class Approach:
         A grasp of an object that fell over stops the run: every grasp skill is demonstrated on an upright
         object, and re-grasps that cannot hold it would only spend the budget. A grasp of a round object
         whose demonstrated approach would bring the hand against a neighbour comes from another side
-        (:meth:`_turn`); one with a perceived heading is turned by its change (:func:`_heading_change`). A
+        (:meth:`_turn`); one with a perceived heading is turned by its change (:meth:`_grasp_turn`). A
         grasp whose hand is far from every demonstrated start goes to the highest one first (:meth:`_far`,
         :meth:`_transit`), and so does an open or close, unless the primitive is tried again (``retry``):
         the failed try came from there (a retried grasp starts above the object, where :meth:`_back_off`
@@ -266,10 +266,7 @@ class Approach:
         descent = grasp and target is not None and _tall(target_name, obs) and _descends(skill)
         turn = 0.0
         if grasp and target is not None and target_name is not None and skill.segments[0].anchor == "target":
-            turn = _heading_change(skill, target_name, obs)
-            if turn is None:  # no perceived heading: a round or narrow object from a free side, else as shown
-                turnable = self._turnable(target_name, obs)
-                turn = self._turn(skill, target_name, target, obs, far, scale, descent) if turnable else 0.0
+            turn = self._grasp_turn(skill, target_name, target, obs, far, scale, descent)
         aside = np.zeros(3)
         if carry and target is not None and target_name is not None:
             aside = carry_shift(task, skill, obs, here)
@@ -339,6 +336,27 @@ class Approach:
                 FailureKind.NO_SKILL,
             )
         return choice, skill
+
+    def _grasp_turn(
+        self,
+        skill: Skill,
+        target_name: str,
+        target: np.ndarray,
+        obs: Observation,
+        far: bool,
+        scale: np.ndarray,
+        descent: bool,
+    ) -> float:
+        """The turn (rad) of a grasp's demonstration: an object with a perceived heading turned by its
+        change since the demonstration (:func:`heading_turn`); a round or narrow object (:meth:`_turnable`)
+        from a free side (:meth:`_turn`, ``descent`` its object-centred way straight down); else 0.
+        ``scale`` (3,) is the grasp offset's scaling (:func:`_empty_hand_scale`)."""
+        if target_name in obs.yaws and skill.target_yaw is not None:
+            period = obs.yaw_periods.get(target_name, math.pi)
+            return heading_turn(obs.yaws[target_name] - skill.target_yaw, period)
+        if self._turnable(target_name, obs):
+            return self._turn(skill, target_name, target, obs, far, scale, descent)
+        return 0.0
 
     def _far(self, task: str, skill: Skill, offset: np.ndarray) -> bool:
         """Whether the hand, at ``offset`` (3,) m from the target, is farther than
@@ -550,15 +568,6 @@ class Approach:
         reason = self.world.step(position, orientation, gripper)
         if reason is not None:
             raise ExecutionError(f"simulation failed: {reason}", FailureKind.SIMULATION)
-
-
-def _heading_change(skill: Skill, target_name: str, obs: Observation) -> float | None:
-    """The turn (rad) of a grasp's demonstration for an object with a perceived heading: its heading's change
-    since the demonstration (:func:`heading_turn`); None where ``obs`` or ``skill`` has no heading of it."""
-    if target_name not in obs.yaws or skill.target_yaw is None:
-        return None
-    period = obs.yaw_periods.get(target_name, math.pi)
-    return heading_turn(obs.yaws[target_name] - skill.target_yaw, period)
 
 
 def heading_turn(change: float, period: float = math.pi) -> float:
