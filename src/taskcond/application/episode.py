@@ -175,13 +175,13 @@ def run_episode(
         result = None
         if fixed is None or fixed.impossible is None:
             result = Executor(world, library, method, source, config, on_event, watch).run(steps)
-        if watch is not None:
-            watch.ended()
         missing = [str(q) for q in goal if not env.truth.holds(q)]
         if plan.task_id is None:
             success = result is not None and result.failure is None and not missing
         else:
             success = bool(env.task.success(env))
+        if watch is not None:
+            watch.ended(success)
         outcome = _Outcome(
             steps=steps,
             fixed=fixed,

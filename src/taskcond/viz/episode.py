@@ -92,8 +92,9 @@ class EpisodeObserver:
     def stepped(self, step: ControlStep) -> None:
         """A control step ended."""
 
-    def ended(self) -> None:
-        """Nothing moves any more; the environment is still open (its final state)."""
+    def ended(self, success: bool) -> None:
+        """Nothing moves any more; the environment is still open (its final state). ``success``: the
+        episode reached its goal (the task's success check, or the goal predicates and no failure)."""
 
     def finish(self, result: EpisodeResult) -> None:
         """The episode ended with ``result`` (the environment is closed)."""
@@ -145,8 +146,8 @@ class Observers(EpisodeObserver):
     def stepped(self, step: ControlStep) -> None:
         self._each("stepped", step)
 
-    def ended(self) -> None:
-        self._each("ended")
+    def ended(self, success: bool) -> None:
+        self._each("ended", success)
 
     def finish(self, result: EpisodeResult) -> None:
         self._each("finish", result)

@@ -21,8 +21,9 @@ reset). Entities, world frame, metres:
   its pair already moved the goal once), contacts of nothing that moves (or DMP only, no condition) grey;
   labelled with the pair;
 - ``world/camera``: the render camera's pose and intrinsics; ``world/camera/rgb`` and
-  ``world/camera/depth`` (m) at a failure and at the end (:data:`CAMERA_EVENTS`; every
-  :data:`CAMERA_EVERY` simulated seconds too if set);
+  ``world/camera/depth`` (m) at a failure and at the end of an episode that did not reach its goal
+  (:data:`CAMERA_EVENTS`; every :data:`CAMERA_EVERY` simulated seconds too if set). A success's final
+  state is in its boxes: an image would cost about 6% of a short episode's wall time (BENCHMARKS.md);
 - ``events/<kind>``: every event of the trace as a log line at its time (kinds of
   :class:`~taskcond.execution.events.Event`; ``failure`` as an error), ``events/plan`` the planner's
   repair, ``events/outcome`` and ``events/goal_check`` at the end;
@@ -63,9 +64,9 @@ if TYPE_CHECKING:
 APPLICATION_ID = "taskcond"
 CAMERA_EVERY: float | None = None
 """Simulated seconds between two periodic camera images (RGB and depth); None: only at
-:data:`CAMERA_EVENTS` and at the end. The CPU renderer costs 50–100 ms an image whatever its size
-(BENCHMARKS.md), about 10 control steps of an episode: periodic images would break the recording's budget
-of 15% of an episode's wall time."""
+:data:`CAMERA_EVENTS` and at the end of a failed episode. The CPU renderer costs 30–100 ms an image
+whatever its size (BENCHMARKS.md), about 10 control steps of an episode: periodic images would break the
+recording's budget of 15% of an episode's wall time."""
 CAMERA_EVENTS = frozenset({"failure"})
 """Event kinds that take a camera image (besides the end), unless one was taken less than
 :data:`CAMERA_GAP` before."""
@@ -280,14 +281,14 @@ class RerunRecording(EpisodeObserver):
         if len(batch.steps) >= FLUSH_EVERY:
             self._flush()
 
-    def ended(self) -> None:
+    def ended(self, success: bool) -> None:
         if self.rec is None or self._world is None:
             return
         self._flush()
         self._at(self._world.env.steps, self._world.time)
         self._log_true_boxes()
         self._check_truth()
-        if self._last_camera < self._world.time:
+        if not success and self._last_camera < self._world.time:
             self._log_camera(self._world.time)
 
     def finish(self, result: EpisodeResult) -> None:
