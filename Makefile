@@ -14,14 +14,22 @@ $(VENV)/.installed: pyproject.toml
 
 # The opt-in native runtime: llama-cpp-python compiles llama.cpp for this CPU. On an Intel CPU with AMX
 # (Sapphire Rapids and later) that native build uses AMX kernels that crash the first evaluation
-# (ggml-org/llama.cpp#20824), so there it is compiled without AMX, every other native instruction kept. It
-# is built without pip's wheel cache, so that a wheel cached from another build is never reused. Then
-# TASKCOND_EMBEDDED_RUNTIME=llama-cpp-python selects it.
+# (ggml-org/llama.cpp#20824), so there it is compiled without AMX, every other native instruction kept.
+# The wheel is built once per CPU (its instruction-set flags), compiler flags, Python and version range,
+# and kept in the cache directory's `wheels/`: the next `make install-native` on the same kind of machine
+# installs it in seconds. pip's own wheel cache is not used: it would reuse a wheel built for another CPU.
+# Once installed, the native runtime is the default (taskcond.llm.config.EMBEDDED_RUNTIMES).
 NO_AMX := $(if $(shell grep -m1 -o amx_tile /proc/cpuinfo 2>/dev/null),-mno-amx-tile -mno-amx-int8 -mno-amx-bf16)
 LLAMA_CPP := $(shell grep -m1 -o '"llama-cpp-python[^"]*"' pyproject.toml)
+NATIVE_KEY := $(shell (grep -m1 '^flags' /proc/cpuinfo; echo '$(NO_AMX) $(LLAMA_CPP)'; $(PYTHON) -V) | sha256sum | cut -c1-16)
+WHEELS ?= $(or $(TASKCOND_CACHE_DIR),$(HOME)/.cache/taskcond)/wheels/llama-cpp-python-$(NATIVE_KEY)
 
-install-native: install  ## also compile llama-cpp-python, the opt-in native runtime (about 5 min on 2 cores)
-	CFLAGS="$(NO_AMX)" CXXFLAGS="$(NO_AMX)" $(BIN)/pip install --progress-bar off --no-cache-dir $(LLAMA_CPP)
+install-native: install  ## also install llama-cpp-python, the native runtime (compiled once per CPU: about 5 min on 2 cores)
+	@ls $(WHEELS)/llama_cpp_python-*.whl >/dev/null 2>&1 || { echo "compiling llama-cpp-python for this CPU into $(WHEELS)"; \
+	  CFLAGS="$(NO_AMX)" CXXFLAGS="$(NO_AMX)" $(BIN)/pip wheel --progress-bar off --no-cache-dir --no-deps \
+	  -w $(WHEELS).part $(LLAMA_CPP) && rm -rf $(WHEELS) && mv $(WHEELS).part $(WHEELS); }
+	$(BIN)/pip install --progress-bar off $(WHEELS)/llama_cpp_python-*.whl
+	$(BIN)/pip install --quiet --force-reinstall --no-deps $(WHEELS)/llama_cpp_python-*.whl  # over any other build
 
 install: $(VENV)/.installed  ## create .venv and install taskcond with everything the tests need
 

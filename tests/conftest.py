@@ -73,7 +73,7 @@ def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item
 @pytest.fixture(scope="session")
 def embedded_backend(_project_only):
     """The real embedded llama.cpp backend with the default model on the default runtime (the first
-    installed of xllamacpp and llama-cpp-python, or ``$TASKCOND_EMBEDDED_RUNTIME``), without the response
+    installed of llama-cpp-python and xllamacpp, or ``$TASKCOND_EMBEDDED_RUNTIME``), without the response
     cache: the very backend the command line builds in this session (its prefix states in the session's
     cache), so that a test driving the command line in-process shares its loaded model
     (:func:`taskcond.llm.config.embedded_backend`) instead of loading a second one."""

@@ -46,15 +46,17 @@ class BackendKind(StrEnum):
 
 
 DEFAULT_OPENAI_MODEL = "gpt-4o-mini"
-EMBEDDED_RUNTIMES = {"xllamacpp": "xllamacpp", "llama-cpp-python": "llama_cpp"}
-"""The embedded backend's llama.cpp runtimes, the default first, each with its import name: xllamacpp (a
-prebuilt wheel, the ``[embedded]`` extra) and llama-cpp-python (compiled on install,
-``[embedded-native]``)."""
+EMBEDDED_RUNTIMES = {"llama-cpp-python": "llama_cpp", "xllamacpp": "xllamacpp"}
+"""The embedded backend's llama.cpp runtimes, the preferred first, each with its import name:
+llama-cpp-python (compiled for this CPU on install, ``[embedded-native]``, ``make install-native``) when it
+is installed, else xllamacpp (a prebuilt wheel, ``[embedded]``, installed by default). The native build
+uses every instruction the CPU has; xllamacpp's kernels stop at AVX2, which made leave-one-out conditions
+1.6 times slower on an AVX-512 machine (BENCHMARKS.md, "Embedded runtimes")."""
 
 
 def embedded_runtime(requested: str | None = None) -> str:
     """The embedded runtime: ``requested`` when given (else ``$TASKCOND_EMBEDDED_RUNTIME``), else the first
-    of :data:`EMBEDDED_RUNTIMES` that is installed, else the default (whose absence the backend reports)."""
+    of :data:`EMBEDDED_RUNTIMES` that is installed, else xllamacpp (whose absence the backend reports)."""
     chosen = requested or os.environ.get("TASKCOND_EMBEDDED_RUNTIME")
     if chosen:
         if chosen not in EMBEDDED_RUNTIMES:
@@ -64,7 +66,7 @@ def embedded_runtime(requested: str | None = None) -> str:
             )
         return chosen
     installed = [name for name, module in EMBEDDED_RUNTIMES.items() if importlib.util.find_spec(module)]
-    return installed[0] if installed else next(iter(EMBEDDED_RUNTIMES))
+    return installed[0] if installed else "xllamacpp"
 
 
 def runtime_label(runtime: str) -> str:
