@@ -39,7 +39,7 @@ DEMOS = ["grasp-bottle", "open-box", "LHT1"]
 @pytest.fixture(scope="module")
 def library_dir(tmp_path_factory):
     directory = tmp_path_factory.mktemp("skills")
-    learn_library(directory, DEMOS)
+    learn_library(directory, DEMOS, workers=2)
     return directory
 
 
@@ -60,6 +60,16 @@ class Fixed:
 
     def condition(self, task_name: str) -> TaskCondition:
         return self.conditions[task_name]
+
+
+def test_two_workers_learn_the_files_one_learns(library_dir, tmp_path) -> None:
+    """The module's library was learned by two processes; one process learns its primitives' skill files
+    byte for byte (each oracle run has its own simulation and seed)."""
+    serial = tmp_path / "serial"
+    learn_library(serial, DEMOS[:2])
+    files = sorted(p.name for p in serial.iterdir() if p.name != "library.json")
+    assert len(files) >= 6 and {f.split("-")[0] for f in files} == {"grasp", "open"}
+    assert all((serial / f).read_bytes() == (library_dir / f).read_bytes() for f in files)
 
 
 def test_learned_library_has_the_primitives_and_the_long_horizon_steps(library) -> None:

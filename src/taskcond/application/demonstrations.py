@@ -4,7 +4,11 @@ a suite oracle's trajectory into a demonstration file (``taskcond record``).
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterable
+import multiprocessing
+import os
+from collections.abc import Callable, Iterable, Iterator
+from concurrent.futures import ProcessPoolExecutor
+from functools import partial
 from pathlib import Path
 
 import numpy as np
@@ -194,6 +198,7 @@ def learn_library(
     seed: int = 0,
     tries: int = 5,
     progress: Callable[[str, bool], None] | None = None,
+    workers: int = 1,
 ) -> SkillLibrary:
     """Record oracle demonstrations and learn a skill from each (§III-D).
 
@@ -202,14 +207,14 @@ def learn_library(
         task_ids: suite ids to demonstrate, default every primitive task and :data:`CONTEXTS`.
         seed: seed of the first try; a failed oracle run is recorded again with the next seed, up to
             ``tries`` times, and the last one is kept if none succeeded.
-        progress: called with each task id and whether its oracle succeeded.
+        progress: called with each task id and whether its oracle succeeded, in the order of ``task_ids``.
+        workers: processes recording demonstrations side by side. Each oracle run has its own simulation
+            and seed, so the library is the same for any count. More than one starts new processes
+            (``spawn``): a script that calls this needs the ``if __name__ == "__main__":`` guard.
     """
+    ids = [*primitive_task_ids(), *CONTEXTS] if task_ids is None else list(task_ids)
     library = SkillLibrary()
-    for task_id in [*primitive_task_ids(), *CONTEXTS] if task_ids is None else task_ids:
-        for k in range(tries):
-            demos, ok = record_demonstrations(task_id, seed + k)
-            if ok:
-                break
+    for task_id, (demos, ok) in zip(ids, _demonstrations(ids, seed, tries, workers), strict=True):
         for demo in demos:
             library.add(learn_skill(demo))
         if progress is not None:
@@ -217,3 +222,35 @@ def learn_library(
     if directory is not None:
         library.save(directory)
     return library
+
+
+def _demonstrations(
+    ids: list[str], seed: int, tries: int, workers: int
+) -> Iterator[tuple[list[Demonstration], bool]]:
+    """:func:`_demonstrate` of each id, in order; in ``workers`` new processes when there are several."""
+    run = partial(_demonstrate, seed=seed, tries=tries)
+    workers = min(workers, len(ids))
+    if workers <= 1:
+        yield from map(run, ids)
+        return
+    context = multiprocessing.get_context("spawn")  # no fork of a process that may hold an LLM's threads
+    with ProcessPoolExecutor(workers, mp_context=context, initializer=_quiet_stdout) as pool:
+        yield from pool.map(run, ids)
+
+
+def _demonstrate(task_id: str, seed: int, tries: int) -> tuple[list[Demonstration], bool]:
+    """The demonstrations of ``task_id``'s oracle from ``seed``, recorded again with the next seed after a
+    failed run, up to ``tries`` runs (the last kept if none succeeded); and whether it succeeded."""
+    for k in range(tries):
+        demos, ok = record_demonstrations(task_id, seed + k)
+        if ok:
+            break
+    return demos, ok
+
+
+def _quiet_stdout() -> None:
+    """A worker's standard output goes nowhere: PyBullet prints its build-time banner there at each
+    connection (results come back through the pool, warnings on standard error)."""
+    null = os.open(os.devnull, os.O_WRONLY)
+    os.dup2(null, 1)
+    os.close(null)

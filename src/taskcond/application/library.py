@@ -21,13 +21,15 @@ def load_library(
     directory: Path | None = None,
     learn_if_missing: bool = True,
     progress: Callable[[str, bool], None] | None = None,
+    workers: int = 1,
 ) -> SkillLibrary:
     """The skill library at ``directory`` (default :func:`default_library_dir`); learned from the oracle
-    demonstrations first if it does not exist yet and ``learn_if_missing``."""
+    demonstrations first if it does not exist yet and ``learn_if_missing``, by ``workers`` processes
+    (:func:`~taskcond.application.demonstrations.learn_library`)."""
     directory = directory or default_library_dir()
     try:
         return SkillLibrary.load(directory)
     except SkillError:
         if not learn_if_missing or (directory / "library.json").exists():
             raise
-    return learn_library(directory, progress=progress)
+    return learn_library(directory, progress=progress, workers=workers)

@@ -189,6 +189,7 @@ def _sim_import() -> None:
 def _library(skills: Path | None):
     from taskcond.application.library import default_library_dir, load_library
     from taskcond.execution.skills import SkillError
+    from taskcond.llm.base import cpu_count
 
     def told(task_id: str, ok: bool) -> None:
         typer.echo(f"  demonstrated {task_id}{'' if ok else ' (oracle failed; kept anyway)'}", err=True)
@@ -197,7 +198,7 @@ def _library(skills: Path | None):
     if not (directory / "library.json").exists():
         typer.echo(f"learning the skill library into {directory} (once, about a minute)", err=True)
     try:
-        return load_library(directory, progress=told)
+        return load_library(directory, progress=told, workers=cpu_count())
     except SkillError as exc:
         fail(str(exc))
 

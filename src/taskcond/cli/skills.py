@@ -16,6 +16,7 @@ from taskcond.cli.common import (
     JsonOption,
     ObjectsOption,
     PrimitivesOption,
+    WorkersOption,
     WorldOption,
     _declare,
     _declare_objects,
@@ -103,6 +104,7 @@ def learn(
         ),
     ] = "dmp",
     world: WorldOption = "kitchen",
+    workers: WorkersOption = None,
 ) -> None:
     """Record oracle demonstrations and store the skill library: DMPs and FromEnv conditions (§III-D); or
     learn the skills of demonstration files (--demo); or train the image-based baseline (--method
@@ -128,6 +130,7 @@ def learn(
 
     from taskcond.application.demonstrations import CONTEXTS, learn_library
     from taskcond.application.library import default_library_dir
+    from taskcond.llm.base import cpu_count
     from taskcond.tasks.registry import UnknownTaskError, get_task, primitive_task_ids
 
     if demo:
@@ -151,7 +154,7 @@ def learn(
             failed.append(task_id)
 
     try:
-        library = learn_library(directory, ids, seed=seed, progress=told)
+        library = learn_library(directory, ids, seed=seed, progress=told, workers=workers or cpu_count())
     except ValueError as exc:
         fail(str(exc))
     bar.close()
