@@ -97,6 +97,29 @@ class Touching:
     position: np.ndarray
 
 
+@dataclass(frozen=True, eq=False)
+class Door:
+    """robosuite's Door at one moment, world frame: a panel on a vertical hinge, latched shut until its
+    lever is turned about the latch's axis (the panel's normal) by about 1.25 rad (measured; robosuite's
+    latch joint stops at ±1.57 rad and springs back).
+
+    Attributes:
+        hinge: (3,) m, a point of the hinge's axis.
+        hinge_axis: (3,) unit; the door opens turning positively about it (robosuite's hinge angle).
+        latch: (3,) m, the point of the latch's axis level with the lever's middle (the lever's root).
+        latch_axis: (3,) unit, normal to the panel.
+        lever: (3,) unit, from the latch's axis along the lever to its free end.
+        outward: (3,) unit, the panel's normal on the lever's side (the side the door opens to).
+    """
+
+    hinge: np.ndarray
+    hinge_axis: np.ndarray
+    latch: np.ndarray
+    latch_axis: np.ndarray
+    lever: np.ndarray
+    outward: np.ndarray
+
+
 def controller_config() -> dict[str, Any]:
     """robosuite's default Panda controller (OSC_POSE) taking absolute world-frame poses: each action is
     (position (3,) m, rotation vector (3,) rad, gripper −1 open … 1 closed)."""
@@ -373,6 +396,27 @@ class RobosuiteScene:
             return None
         return float(self.sim.data.qpos[self.env.hinge_qpos_addr])
 
+    def door(self) -> Door | None:
+        """The door's hinge, latch and lever now (:class:`Door`), or None without a door."""
+        if "door" not in self.entities:
+            return None
+        data = self.sim.data
+        hinge, latch = (self.model.joint_name2id(j) for j in self.env.door.joints[:2])
+        lever = self.model.geom_name2id(f"{self.env.door.naming_prefix}handle")
+        point, axis = np.array(data.xanchor[latch]), np.array(data.xaxis[latch])
+        centre = np.array(data.geom_xpos[lever])
+        along = centre - point
+        out = float(along @ axis)
+        along = along - out * axis
+        return Door(
+            hinge=np.array(data.xanchor[hinge]),
+            hinge_axis=np.array(data.xaxis[hinge]),
+            latch=point + out * axis,
+            latch_axis=axis,
+            lever=along / np.linalg.norm(along),
+            outward=axis if out > 0 else -axis,
+        )
+
     # --------------------------------------------------------------------------------------- control
     def step(self, position: np.ndarray, orientation: np.ndarray, gripper: float) -> str | None:
         """One control step of the OSC towards the end-effector pose (position (3,) m, orientation (4,)
@@ -423,6 +467,7 @@ __all__ = [
     "DOOR_OPEN",
     "OBJECT_NAMES",
     "ROUND",
+    "Door",
     "RobosuiteScene",
     "Touching",
     "controller_config",

@@ -4,8 +4,8 @@ that do it, a scripted oracle per primitive (robosuite ships no scripted experts
 
 An oracle plans from the true state of the scene when its primitive starts (MuJoCo's poses, never the
 perceived ones) and yields end-effector commands, one per control step: (position (3,) m, orientation (4,)
-xyzw, gripper 0 open … 1 closed), world frame. Every primitive keeps the hand pointing down
-(:func:`down`); a grasp turns it about the vertical so that the fingers close across an elongated
+xyzw, gripper 0 open … 1 closed), world frame. Every primitive but opening the door (a level hand,
+:func:`level`, :func:`open_door`) keeps the hand pointing down (:func:`down`); a grasp turns it about the vertical so that the fingers close across an elongated
 object's narrow side (:func:`across`; the cereal box is 10 cm long, more than the Panda's 8 cm opening),
 the primitives after it keep the heading the hand has.
 """
@@ -18,7 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from taskcond.conditions import Relation
+from taskcond.conditions import ContainerState, Relation
 from taskcond.primitives import parse_task
 from taskcond.worlds.robosuite.scene import ROUND, RobosuiteScene
 
@@ -47,6 +47,17 @@ DROP = 0.02
 """Height (m) above its place at which a carried object is let go."""
 CARRIES = (Relation.INSIDE, Relation.ABOVE)
 """The relations a carry oracle places its object in with another: into a bin, on top of a cube."""
+LEVER_GRIP = 0.10
+"""Distance (m) from the latch's axis along the door's lever (15 cm long) at which the hand holds it."""
+LEVER_TURN = np.radians(85.0)
+"""Turn (rad) of the door's lever that unlatches the door: the latch frees it from about 1.25 rad
+(measured by holding the latch at fixed angles and pushing the door: at 1.2 rad it stuck at 0.1 rad of
+opening, from 1.25 rad it opened to the hinge's stop); the hand, holding the lever by friction, turns it
+about 1.45 rad by this."""
+DOOR_PULL = 0.40
+"""Turn (rad) of the hand about the door's hinge: the hinge's stop (robosuite counts 0.3 rad as open)."""
+TURN_STEPS = 40
+"""Control steps of turning the lever, and of pulling the door, each (2 s at 20 Hz)."""
 
 
 @dataclass(frozen=True)
@@ -105,13 +116,11 @@ TASKS: dict[str, RobosuiteTask] = {
             tuple(s for obj in TALLEST_FIRST for s in _pick_place(obj)),
             "put each of the four objects into its bin",
         ),
+        RobosuiteTask("Door", ("open door",), "open the door"),
     )
 }
-"""The supported robosuite environments, by robosuite's name. Not (yet) supported: Door (its latched lever
-is turned and pulled sideways; a top-down hand cannot hold it in front of the door panel, and the
-oracle tried with a level hand did not track its poses under the OSC) and NutAssemblySquare (the nut's
-handle must be grasped at the nut's yaw, which robosuite draws uniformly; the executor's environment
-information has boxes and centres, no orientations)."""
+"""The supported robosuite environments, by robosuite's name. Not (yet) supported: NutAssemblySquare (the
+nut's handle must be grasped at the nut's yaw, which robosuite draws uniformly)."""
 
 
 class UnknownRobosuiteTaskError(KeyError):
@@ -239,6 +248,56 @@ def carry(scene: RobosuiteScene, obj: str, place: str, quat: np.ndarray, inside:
     )
 
 
+def level(outward: np.ndarray) -> np.ndarray:
+    """The hand level, pointing horizontally against ``outward`` (3,) (at a door's panel) with its fingers
+    closing vertically (they close along the end-effector site's x axis, measured), xyzw (4,)."""
+    z = -np.array([outward[0], outward[1], 0.0])
+    z /= np.linalg.norm(z)
+    x = np.array([0.0, 0.0, -1.0])
+    return Rotation.from_matrix(np.column_stack([x, np.cross(z, x), z])).as_quat()
+
+
+def _arc(
+    here: np.ndarray, quat: np.ndarray, centre: np.ndarray, axis: np.ndarray, angle: float, gripper: float
+) -> list[Command]:
+    """:data:`TURN_STEPS` poses of the hand (position ``here`` (3,) m, orientation ``quat`` (4,) xyzw)
+    turned rigidly by up to ``angle`` rad about the line through ``centre`` (3,) along ``axis`` (3,)."""
+    out = []
+    for k in range(1, TURN_STEPS + 1):
+        turn = Rotation.from_rotvec(axis * angle * k / TURN_STEPS)
+        out.append((centre + turn.apply(here - centre), (turn * Rotation.from_quat(quat)).as_quat(), gripper))
+    return out
+
+
+def open_door(scene: RobosuiteScene, quat: np.ndarray) -> Iterator[Command]:
+    """Open robosuite's latched door (:meth:`~RobosuiteScene.door`): the hand turns level (:func:`level`)
+    on its way to :data:`ABOVE` in front of the lever, :data:`LEVER_GRIP` out along it, comes in and
+    closes on it; turns the lever's free end up by :data:`LEVER_TURN` about the latch's axis (up, not down:
+    pressed down, the Panda's last joint met its limit); pulls the door open by :data:`DOOR_PULL` about
+    the hinge, turns the lever back, lets go and backs off along the panel's normal. ``quat`` is unused:
+    the hand's heading is the door's."""
+    door = scene.door()
+    if door is None:
+        raise ValueError("no door in this scene")
+    here, _ = scene.ee_pose()
+    hand = level(door.outward)
+    grip = door.latch + LEVER_GRIP * door.lever
+    lift = 1.0 if np.cross(door.latch_axis, door.lever)[2] > 0 else -1.0
+    yield from _path([(grip + ABOVE * door.outward, 0.0), (grip, 0.0)], here, hand)
+    for gripper in (0.0, 1.0):  # the arm lags its commands: it arrives before the fingers close
+        for _ in range(HOLD):
+            yield grip, hand, gripper
+    steps = _arc(grip, hand, door.latch, door.latch_axis, lift * LEVER_TURN, 1.0)
+    pulled, turned = steps[-1][0], steps[-1][1]
+    steps += _arc(pulled, turned, door.hinge, door.hinge_axis, DOOR_PULL, 1.0)
+    swing = Rotation.from_rotvec(door.hinge_axis * DOOR_PULL)
+    latch = door.hinge + swing.apply(door.latch - door.hinge)
+    steps += _arc(*steps[-1][:2], latch, swing.apply(door.latch_axis), -lift * LEVER_TURN, 1.0)
+    yield from steps
+    end, end_quat, _ = steps[-1]
+    yield from _path([(end, 1.0), (end, 0.0), (end + ABOVE * swing.apply(door.outward), 0.0)], end, end_quat)
+
+
 def oracle(scene: RobosuiteScene, task_name: str, quat: np.ndarray) -> Iterator[Command]:
     """The scripted commands of one primitive task from the scene's current state, chosen by what the
     primitive achieves (:attr:`~taskcond.primitives.Primitive.achieves`), never by its id: a grasp
@@ -259,9 +318,11 @@ def oracle(scene: RobosuiteScene, task_name: str, quat: np.ndarray) -> Iterator[
         return release(scene, task.objects[0], down(scene))
     if primitive.places in CARRIES and len(task.objects) == 2:
         return carry(scene, *task.objects, down(scene), inside=primitive.places is Relation.INSIDE)
+    if primitive.effect(*task.objects) == ContainerState("door", True):
+        return open_door(scene, quat)
     raise ValueError(
         f"no robosuite oracle for {task.name!r}; oracles: a grasp, a let-go, a carry placing an object "
-        f"{' or '.join(str(r) for r in CARRIES)} another"
+        f"{' or '.join(str(r) for r in CARRIES)} another, opening the door"
     )
 
 
