@@ -5,8 +5,8 @@ that do it, a scripted oracle per primitive (robosuite ships no scripted experts
 An oracle plans from the true state of the scene when its primitive starts (MuJoCo's poses, never the
 perceived ones) and yields end-effector commands, one per control step: (position (3,) m, orientation (4,)
 xyzw, gripper 0 open … 1 closed), world frame. Every primitive but opening the door (a level hand,
-:func:`level`, :func:`open_door`) keeps the hand pointing down (:func:`down`); a grasp turns it about the vertical so that the fingers close across an elongated
-object's narrow side (:func:`across`; the cereal box is 10 cm long, more than the Panda's 8 cm opening),
+:func:`level`, :func:`open_door`) keeps the hand pointing down (:func:`down`); a grasp turns it about the
+vertical so that the fingers close across an elongated object's narrow side (:func:`across`; the cereal box is 10 cm long, more than the Panda's 8 cm opening),
 the primitives after it keep the heading the hand has.
 """
 
