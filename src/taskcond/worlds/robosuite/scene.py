@@ -63,6 +63,12 @@ CONTACT_DISTANCE = 0.002
 """MuJoCo contacts with a larger distance (m; within the geoms' margins) are not touches."""
 LYING = np.cos(np.radians(45.0))
 """A free object whose own z axis has a smaller world-z component (tilted more than 45°) lies."""
+RINGS = {"square nut": np.pi}
+"""Free objects that are held and placed by a ring, and the turn (rad) about the ring's centre (the object's
+body origin) after which the ring and the walls a hand holds it by look the same: the square nut's ring,
+held across its ±y walls, turned by half a turn (its handle on the +x wall then points the other way,
+which neither the hold nor the peg minds). Their centre is the ring's (:meth:`RobosuiteScene.centre`),
+their heading's period this (:meth:`RobosuiteScene.yaw_period`)."""
 FAR = 5.0
 """A free object farther than this (m) from the origin is not in the scene: robosuite parks the objects a
 single-object PickPlace or NutAssembly does not use at (10, 10, 10)."""
@@ -339,9 +345,20 @@ class RobosuiteScene:
         return np.max([self.model.geom_aabb[g, 3:] for g in self.entities[name].geoms], axis=0)
 
     def yaw_period(self, name: str) -> float:
-        """The turn (rad) about its vertical after which a free object's box looks the same: π/2 for a
-        section whose sides differ by less than :data:`CUBE_LIKE`, else π."""
+        """The turn (rad) about its vertical after which a free object looks the same: its ring's
+        (:data:`RINGS`); else its box's, π/2 for a section whose sides differ by less than
+        :data:`CUBE_LIKE`, π otherwise."""
+        if name in RINGS:
+            return RINGS[name]
         return np.pi if self.elongated(name) else np.pi / 2
+
+    def centre(self, name: str) -> np.ndarray:
+        """Centre (3,) m, world frame, of a named thing: a ring's (:data:`RINGS`, its body origin), else its
+        box's."""
+        if name in RINGS:
+            return self.pose(name)[0]
+        lower, upper = self.box(name)
+        return (lower + upper) / 2
 
     def elongated(self, name: str) -> bool:
         """Whether a free object's horizontal section has sides differing by :data:`CUBE_LIKE` or more."""
@@ -466,6 +483,7 @@ __all__ = [
     "CONTROL_FREQ",
     "DOOR_OPEN",
     "OBJECT_NAMES",
+    "RINGS",
     "ROUND",
     "Door",
     "RobosuiteScene",

@@ -6,8 +6,10 @@ An oracle plans from the true state of the scene when its primitive starts (MuJo
 perceived ones) and yields end-effector commands, one per control step: (position (3,) m, orientation (4,)
 xyzw, gripper 0 open … 1 closed), world frame. Every primitive but opening the door (a level hand,
 :func:`level`, :func:`open_door`) keeps the hand pointing down (:func:`down`); a grasp turns it about the
-vertical so that the fingers close across an elongated object's narrow side (:func:`across`; the cereal box is 10 cm long, more than the Panda's 8 cm opening),
-the primitives after it keep the heading the hand has.
+vertical so that the fingers close across an elongated object's narrow side (:func:`across`; the cereal
+box is 10 cm long, more than the Panda's 8 cm opening), the primitives after it keep the heading the hand
+has. A ring (the square nut) is held across a wall (:func:`grasp_ring`) and carried turned to line up with
+the square peg (:func:`carry_ring`).
 """
 
 from __future__ import annotations
@@ -16,11 +18,11 @@ from collections.abc import Iterator
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.spatial.transform import Rotation
+from scipy.spatial.transform import Rotation, Slerp
 
 from taskcond.conditions import ContainerState, Relation
 from taskcond.primitives import parse_task
-from taskcond.worlds.robosuite.scene import ROUND, RobosuiteScene
+from taskcond.worlds.robosuite.scene import RINGS, ROUND, RobosuiteScene
 
 Command = tuple[np.ndarray, np.ndarray, float]
 """One control step's end-effector command: position (3,) m, orientation (4,) xyzw, gripper 0–1."""
@@ -47,6 +49,16 @@ DROP = 0.02
 """Height (m) above its place at which a carried object is let go."""
 CARRIES = (Relation.INSIDE, Relation.ABOVE)
 """The relations a carry oracle places its object in with another: into a bin, on top of a cube."""
+RING_GRIP = np.array([0.0, 0.03325, 0.0])
+"""Where the hand holds a ring (:data:`~taskcond.worlds.robosuite.scene.RINGS`), m, in the ring's frame:
+across the middle of its wall at +y, or of the wall at −y half a turn away (robosuite's SquareNut: an
+8.75 cm square ring of 2.1 cm walls whose middles lie 3.325 cm from the centre, the handle on the +x wall),
+the fingers closing along y. Tried before: the +x wall's middle (the handle is in the outer finger's way),
+near a corner across a wall (the inner finger landed on the next wall) and across a corner (the opened
+inner finger kept the nut hanging on it)."""
+RING_DEPTH = 0.010
+"""Depth (m) below a ring's top (2 cm high) at which the hand (the end-effector site) closes on it: the
+fingers reach 8 mm below the site, so they stop 2 mm above the table."""
 LEVER_GRIP = 0.10
 """Distance (m) from the latch's axis along the door's lever (15 cm long) at which the hand holds it."""
 LEVER_TURN = np.radians(85.0)
@@ -117,10 +129,14 @@ TASKS: dict[str, RobosuiteTask] = {
             "put each of the four objects into its bin",
         ),
         RobosuiteTask("Door", ("open door",), "open the door"),
+        RobosuiteTask(
+            "NutAssemblySquare",
+            ("grasp square nut", "move square nut on top of square peg", "release square nut"),
+            "put the square nut onto the square peg",
+        ),
     )
 }
-"""The supported robosuite environments, by robosuite's name. Not (yet) supported: NutAssemblySquare (the
-nut's handle must be grasped at the nut's yaw, which robosuite draws uniformly)."""
+"""The supported robosuite environments, by robosuite's name."""
 
 
 class UnknownRobosuiteTaskError(KeyError):
@@ -221,6 +237,72 @@ def grasp(scene: RobosuiteScene, obj: str, quat: np.ndarray) -> Iterator[Command
     )
 
 
+def _turned(quat: np.ndarray, angle: float) -> np.ndarray:
+    """``quat`` (4,) xyzw turned by ``angle`` rad about the world's vertical."""
+    return (Rotation.from_rotvec([0.0, 0.0, angle]) * Rotation.from_quat(quat)).as_quat()
+
+
+def grasp_ring(scene: RobosuiteScene, obj: str, quat: np.ndarray) -> Iterator[Command]:
+    """Grasp a ring (:data:`~taskcond.worlds.robosuite.scene.RINGS`, the square nut) at :data:`RING_GRIP`,
+    of the points its symmetry makes of it the one nearest the hand, the hand pointing down with its
+    fingers closing towards the ring's centre (along the site's x axis) in whichever of its two ways is
+    nearer ``quat`` (4,) xyzw; :data:`RING_DEPTH` below the top, then lift :data:`LIFT`."""
+    here, _ = scene.ee_pose()
+    centre, period = scene.centre(obj), scene.yaw_period(obj)
+    angles = scene.yaw(obj) + period * np.arange(round(2 * np.pi / period))
+    points = [centre + Rotation.from_rotvec([0.0, 0.0, a]).apply(RING_GRIP) for a in angles]
+    k = int(np.argmin([np.linalg.norm((p - here)[:2]) for p in points]))
+    normal = Rotation.from_rotvec([0.0, 0.0, angles[k]]).apply(RING_GRIP / np.linalg.norm(RING_GRIP))
+    if normal @ Rotation.from_quat(quat).as_matrix()[:, 0] < 0.0:
+        normal = -normal
+    down_z = np.array([0.0, 0.0, -1.0])
+    hand = Rotation.from_matrix(np.column_stack([normal, np.cross(down_z, normal), down_z])).as_quat()
+    grip = np.array([*points[k][:2], scene.box(obj)[1][2] - RING_DEPTH])
+    above = grip + np.array([0.0, 0.0, ABOVE])
+    high = np.array([*here[:2], max(here[2], above[2])])
+    yield from _path([(high, 0.0)], here, quat)
+    yield from _turning(high, above, quat, hand, 0.0)
+    for point in (above, grip):  # the arm lags its commands: turned before it comes down, down before
+        yield from _path([(point, 0.0)], above, hand)  # the fingers close on the low ring
+        for _ in range(HOLD):
+            yield point, hand, 0.0
+    yield from _path([(grip, 0.0), (grip, 1.0), (grip + np.array([0.0, 0.0, LIFT]), 1.0)], grip, hand)
+
+
+def _turning(
+    start: np.ndarray, goal: np.ndarray, quat: np.ndarray, end: np.ndarray, gripper: float
+) -> Iterator[Command]:
+    """A straight line from ``start`` to ``goal`` (3,) m at :data:`SPEED` with the hand turning from ``quat``
+    to ``end`` (4,) xyzw on the way (turned at once, the arm of a large turn was thrown into its joint
+    limits and lost the pose), then :data:`HOLD` steps at the end."""
+    line = _line(start, goal)
+    turns = Slerp([0.0, 1.0], Rotation.from_quat([quat, end]))(np.linspace(0.0, 1.0, len(line) + 1)[1:])
+    for position, orientation in zip(line, turns.as_quat(), strict=True):
+        yield position, orientation, gripper
+    for _ in range(HOLD):
+        yield goal, end, gripper
+
+
+def carry_ring(scene: RobosuiteScene, obj: str, place: str) -> Iterator[Command]:
+    """Carry the held ring ``obj`` up and across, turning it by the least turn that brings its heading to
+    0 or π (its sides then lie along the world's axes, as robosuite's square peg's do, and the hand
+    holding it across its ±y walls closes along world y, as the arm starts: turned to ±π/2 instead, the
+    arm reaching out to the peg lost its pose in 3 of 10 runs), until its centre is above the centre of
+    ``place``'s box, hold, and lower it until its bottom is :data:`DROP` above the place's top."""
+    here, quat = scene.ee_pose()
+    turn = -float((scene.yaw(obj) + np.pi / 2) % np.pi - np.pi / 2)
+    lever = Rotation.from_rotvec([0.0, 0.0, turn]).apply(here - scene.centre(obj))
+    hand_above_bottom = here[2] - scene.box(obj)[0][2]
+    p_lower, p_upper = scene.box(place)
+    target = (p_lower + p_upper) / 2 + lever
+    high = max(here[2], p_upper[2] + hand_above_bottom + CLEARANCE)
+    end = _turned(quat, turn)
+    top, over = np.array([*here[:2], high]), np.array([*target[:2], high])
+    yield from _path([(top, 1.0)], here, quat)
+    yield from _turning(top, over, quat, end, 1.0)
+    yield from _path([(np.array([*target[:2], p_upper[2] + DROP + hand_above_bottom]), 1.0)], over, end)
+
+
 def release(scene: RobosuiteScene, obj: str, quat: np.ndarray) -> Iterator[Command]:
     """Open where the hand is, then rise :data:`LIFT`."""
     here, _ = scene.ee_pose()
@@ -313,9 +395,13 @@ def oracle(scene: RobosuiteScene, task_name: str, quat: np.ndarray) -> Iterator[
     task = parse_task(task_name)
     primitive = task.primitive
     if primitive.grasps:
+        if task.objects[0] in RINGS:
+            return grasp_ring(scene, task.objects[0], quat)
         return grasp(scene, task.objects[0], quat)
     if primitive.lets_go:
         return release(scene, task.objects[0], down(scene))
+    if primitive.places is Relation.ABOVE and task.objects[0] in RINGS:
+        return carry_ring(scene, *task.objects)
     if primitive.places in CARRIES and len(task.objects) == 2:
         return carry(scene, *task.objects, down(scene), inside=primitive.places is Relation.INSIDE)
     if primitive.effect(*task.objects) == ContainerState("door", True):
