@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import json
 
+import numpy as np
 import pytest
 from typer.testing import CliRunner
 
@@ -87,6 +88,23 @@ def test_door_opened_by_its_oracle_then_by_the_skill_learned_from_it() -> None:
     result = run_episode(TASKS["Door"], "env", 1000, library, make_source("env", library), noise=0.005)
     assert result.success, result.reason
     assert "door open" in result.final_predicates
+
+
+def test_square_nut_perceived_by_its_ring() -> None:
+    """The nut's centre and heading are its ring's: the handle puts its box's centre off the ring's."""
+    env = make_env("NutAssemblySquare")
+    try:
+        world = RobosuiteWorld(reset(env, 0))
+        obs = world.observe()
+        ring = world.scene.pose("square nut")[0]
+        lower, upper = obs.boxes["square nut"]
+        assert np.allclose(obs.centers["square nut"], ring)
+        assert np.linalg.norm((lower + upper) / 2 - ring) > 0.01
+        assert obs.yaw_periods["square nut"] == pytest.approx(np.pi)
+        assert obs.yaws["square nut"] == pytest.approx(world.scene.yaw("square nut"))
+        assert world.affords("move_on_top", ("square nut", "square peg")) is None
+    finally:
+        env.close()
 
 
 def test_condition_guided_lift_from_one_demonstration(tmp_path) -> None:  # type: ignore[no-untyped-def]
