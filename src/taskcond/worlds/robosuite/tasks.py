@@ -310,8 +310,12 @@ def release(scene: RobosuiteScene, obj: str, quat: np.ndarray) -> Iterator[Comma
 
 
 def carry(scene: RobosuiteScene, obj: str, place: str, quat: np.ndarray, inside: bool) -> Iterator[Command]:
-    """Carry the held ``obj`` up, across to above ``place`` and down until its bottom is :data:`DROP`
-    above the place's floor (``inside``: a bin's bottom) or top."""
+    """Carry the held ``obj`` up, across to above ``place``, hold still there (:data:`HOLD` steps) and go
+    straight down until its bottom is :data:`DROP` above the place's floor (``inside``: a bin's bottom) or
+    top. The standstill ends the skill's approach there (:func:`~taskcond.execution.skills.split_points`):
+    learned from it, the way across is one DMP piece aimed at the place from wherever the carry starts and
+    the descent another, straight down; without it the one warped piece of a carry started elsewhere than
+    demonstrated came down over the target bin's divider (BENCHMARKS.md, seed 1001)."""
     here, _ = scene.ee_pose()
     lower, _ = scene.box(obj)
     hand_above_bottom = here[2] - lower[2]
@@ -319,15 +323,11 @@ def carry(scene: RobosuiteScene, obj: str, place: str, quat: np.ndarray, inside:
     target = (p_lower + p_upper) / 2
     floor = p_lower[2] if inside else p_upper[2]
     high = max(here[2], p_upper[2] + hand_above_bottom + CLEARANCE)
-    yield from _path(
-        [
-            (np.array([*here[:2], high]), 1.0),
-            (np.array([*target[:2], high]), 1.0),
-            (np.array([*target[:2], floor + DROP + hand_above_bottom]), 1.0),
-        ],
-        here,
-        quat,
-    )
+    over = np.array([*target[:2], high])
+    yield from _path([(np.array([*here[:2], high]), 1.0), (over, 1.0)], here, quat)
+    for _ in range(HOLD):
+        yield over, quat, 1.0
+    yield from _path([(np.array([*target[:2], floor + DROP + hand_above_bottom]), 1.0)], over, quat)
 
 
 def level(outward: np.ndarray) -> np.ndarray:
