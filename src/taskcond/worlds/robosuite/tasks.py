@@ -49,16 +49,26 @@ DROP = 0.02
 """Height (m) above its place at which a carried object is let go."""
 CARRIES = (Relation.INSIDE, Relation.ABOVE)
 """The relations a carry oracle places its object in with another: into a bin, on top of a cube."""
-RING_GRIP = np.array([0.0, 0.03325, 0.0])
+RING_GRIP = np.array([0.0, 0.045, 0.0])
 """Where the hand holds a ring (:data:`~taskcond.worlds.robosuite.scene.RINGS`), m, in the ring's frame:
-across the middle of its wall at +y, or of the wall at −y half a turn away (robosuite's SquareNut: an
-8.75 cm square ring of 2.1 cm walls whose middles lie 3.325 cm from the centre, the handle on the +x wall),
-the fingers closing along y. Tried before: the +x wall's middle (the handle is in the outer finger's way),
-near a corner across a wall (the inner finger landed on the next wall) and across a corner (the opened
-inner finger kept the nut hanging on it)."""
-RING_DEPTH = 0.010
+across its wall at +y, or the wall at −y half a turn away (robosuite's SquareNut: an 8.75 cm square ring of
+2.1 cm walls whose middles lie 3.325 cm from the centre, the handle on the +x wall), the fingers closing
+along y, the hand 1.2 cm outside the wall's middle: coming down there, the open inner finger clears the far
+wall (over the wall's middle it brushed the far wall's top, and the learned approach ended at the
+standstill above the ring instead of at the grip); closing, it slides the ring onto the outer finger.
+Tried before: the +x wall's middle (the handle is in the outer finger's way), near a corner across a wall
+(the inner finger landed on the next wall) and across a corner (the opened inner finger kept the nut
+hanging on it)."""
+RING_DEPTH = 0.008
 """Depth (m) below a ring's top (2 cm high) at which the hand (the end-effector site) closes on it: the
-fingers reach 8 mm below the site, so they stop 2 mm above the table."""
+fingers reach 8 mm below the site, so they stop 4 mm above the table (at 2 mm they touched it, which the
+LLM's conditions do not allow, and Alg. 2 moved the grasp away)."""
+RING_DESCENT = 0.05
+"""Speed (m/s) of the hand's last 10 cm down onto a ring, from a standstill above it: slow, so that the arm,
+which lags its commands, is down when the fingers close (at :data:`SPEED` it was 1.8 cm high), and so that
+the learned approach (one DMP piece, aimed at the grip, up to the standstill there) comes down only after
+it has arrived above. Tried: the descent as a DMP piece of its own, from the standstill above; it starts
+where the lagging hand is, and 4 of 10 grasps closed 1 cm high and 2 cm aside."""
 LEVER_GRIP = 0.10
 """Distance (m) from the latch's axis along the door's lever (15 cm long) at which the hand holds it."""
 LEVER_TURN = np.radians(85.0)
@@ -246,7 +256,8 @@ def grasp_ring(scene: RobosuiteScene, obj: str, quat: np.ndarray) -> Iterator[Co
     """Grasp a ring (:data:`~taskcond.worlds.robosuite.scene.RINGS`, the square nut) at :data:`RING_GRIP`,
     of the points its symmetry makes of it the one nearest the hand, the hand pointing down with its
     fingers closing towards the ring's centre (along the site's x axis) in whichever of its two ways is
-    nearer ``quat`` (4,) xyzw; :data:`RING_DEPTH` below the top, then lift :data:`LIFT`."""
+    nearer ``quat`` (4,) xyzw: turned on its way to :data:`ABOVE` over the grip, still there, down at
+    :data:`RING_DESCENT` to :data:`RING_DEPTH` below the top, still there, close, lift :data:`LIFT`."""
     here, _ = scene.ee_pose()
     centre, period = scene.centre(obj), scene.yaw_period(obj)
     angles = scene.yaw(obj) + period * np.arange(round(2 * np.pi / period))
@@ -262,10 +273,10 @@ def grasp_ring(scene: RobosuiteScene, obj: str, quat: np.ndarray) -> Iterator[Co
     high = np.array([*here[:2], max(here[2], above[2])])
     yield from _path([(high, 0.0)], here, quat)
     yield from _turning(high, above, quat, hand, 0.0)
-    for point in (above, grip):  # the arm lags its commands: turned before it comes down, down before
-        yield from _path([(point, 0.0)], above, hand)  # the fingers close on the low ring
-        for _ in range(HOLD):
-            yield point, hand, 0.0
+    for position in _line(above, grip, RING_DESCENT):
+        yield position, hand, 0.0
+    for _ in range(HOLD):  # a standstill at the grip: the learned grasp's approach ends there
+        yield grip, hand, 0.0
     yield from _path([(grip, 0.0), (grip, 1.0), (grip + np.array([0.0, 0.0, LIFT]), 1.0)], grip, hand)
 
 
