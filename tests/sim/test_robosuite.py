@@ -72,13 +72,16 @@ def test_door_opened_by_its_oracle_then_by_the_skill_learned_from_it() -> None:
     env = make_env("Door")
     try:
         world = RobosuiteWorld(reset(env, 1))
+        obs = world.observe()
+        assert np.allclose(obs.centers["door"], world.scene.pose("door")[0])  # the panel's, not its box's
+        assert obs.yaws["door"] == pytest.approx(world.scene.yaw("door"))  # an open is turned by its change
         assert world.affords("open", ("door",)) is None
         assert world.affords("open", ("door frame",)) is not None  # only the door opens
         assert world.affords("grasp", ("door",)) is not None  # nor is it picked up
     finally:
         env.close()
     demos, ok = record_demonstrations("Door", seed=1)
-    assert ok and len(demos) == 1
+    assert ok and len(demos) == 1 and demos[0].target_yaw is not None
     evidence = demos[0].evidence
     assert evidence is not None
     assert ContainerState("door", False) in evidence.start and ContainerState("door", True) in evidence.end

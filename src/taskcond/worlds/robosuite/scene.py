@@ -202,7 +202,8 @@ class RobosuiteScene:
             body = model.body_name2id(obj.root_body)
             if obj.name == "Door":
                 out["door frame"] = Entity("door frame", "fixture", self._body_geoms("Door_frame", False))
-                out["door"] = Entity("door", "door", self._body_geoms("Door_door"), body)
+                panel = model.body_name2id("Door_door")  # its pose is the panel's, swung with the hinge
+                out["door"] = Entity("door", "door", self._body_geoms("Door_door"), panel)
                 continue
             name = OBJECT_NAMES.get(obj.name)
             if name is None or np.linalg.norm(self.sim.data.body_xpos[body]) > FAR:
@@ -345,17 +346,20 @@ class RobosuiteScene:
         return np.max([self.model.geom_aabb[g, 3:] for g in self.entities[name].geoms], axis=0)
 
     def yaw_period(self, name: str) -> float:
-        """The turn (rad) about its vertical after which a free object looks the same: its ring's
-        (:data:`RINGS`); else its box's, π/2 for a section whose sides differ by less than
-        :data:`CUBE_LIKE`, π otherwise."""
+        """The turn (rad) about its vertical after which a free object, or the door, looks the same: the
+        door's a whole turn; a ring's (:data:`RINGS`); else its box's, π/2 for a section whose sides
+        differ by less than :data:`CUBE_LIKE`, π otherwise."""
+        if name == "door":
+            return 2 * np.pi
         if name in RINGS:
             return RINGS[name]
         return np.pi if self.elongated(name) else np.pi / 2
 
     def centre(self, name: str) -> np.ndarray:
-        """Centre (3,) m, world frame, of a named thing: a ring's (:data:`RINGS`, its body origin), else its
-        box's."""
-        if name in RINGS:
+        """Centre (3,) m, world frame, of a named thing: a ring's (:data:`RINGS`) or the door's, its body
+        origin (the ring's centre; the panel's, about which a turn of the door is a turn of its lever),
+        else its box's (the door's box, its lever sticking out, shifted 2.5 cm with the door's turn)."""
+        if name in RINGS or name == "door":
             return self.pose(name)[0]
         lower, upper = self.box(name)
         return (lower + upper) / 2

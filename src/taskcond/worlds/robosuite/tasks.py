@@ -63,14 +63,18 @@ RING_DEPTH = 0.008
 """Depth (m) below a ring's top (2 cm high) at which the hand (the end-effector site) closes on it: the
 fingers reach 8 mm below the site, so they stop 4 mm above the table (at 2 mm they touched it, which the
 LLM's conditions do not allow, and Alg. 2 moved the grasp away)."""
-RING_DESCENT = 0.05
-"""Speed (m/s) of the hand's last 10 cm down onto a ring, from a standstill above it: slow, so that the arm,
-which lags its commands, is down when the fingers close (at :data:`SPEED` it was 1.8 cm high), and so that
-the learned approach (one DMP piece, aimed at the grip, up to the standstill there) comes down only after
-it has arrived above. Tried: the descent as a DMP piece of its own, from the standstill above; it starts
-where the lagging hand is, and 4 of 10 grasps closed 1 cm high and 2 cm aside."""
-LEVER_GRIP = 0.10
-"""Distance (m) from the latch's axis along the door's lever (15 cm long) at which the hand holds it."""
+FINAL_SPEED = 0.05
+"""Speed (m/s) of the hand's last 10 cm onto what it grasps, from a standstill before it, for a ring and the
+door's lever: slow, so that the arm, which lags its commands, is there when the fingers close (at
+:data:`SPEED` it was 1.8 cm high over the ring, 2.5 cm short of the lever), and so that the learned
+approach (one DMP piece, up to the standstill at the grip), which reaches its goal only at its end, comes
+in only after it has arrived in front. Tried for the ring: the descent as a DMP piece of its own, from the
+standstill above; it starts where the lagging hand is, and 4 of 10 grasps closed 1 cm high and 2 cm
+aside."""
+LEVER_GRIP = 0.125
+"""Distance (m) from the latch's axis along the door's lever (15 cm long) at which the hand holds it: far
+enough out that the hand's housing (7 cm either side of the fingers along the lever) clears the latch's
+boss, which stands 1 cm proud of the lever round the axis (at 10 cm the hand stopped 2.5 cm short)."""
 LEVER_TURN = np.radians(85.0)
 """Turn (rad) of the door's lever that unlatches the door: the latch frees it from about 1.25 rad
 (measured by holding the latch at fixed angles and pushing the door: at 1.2 rad it stuck at 0.1 rad of
@@ -257,7 +261,7 @@ def grasp_ring(scene: RobosuiteScene, obj: str, quat: np.ndarray) -> Iterator[Co
     of the points its symmetry makes of it the one nearest the hand, the hand pointing down with its
     fingers closing towards the ring's centre (along the site's x axis) in whichever of its two ways is
     nearer ``quat`` (4,) xyzw: turned on its way to :data:`ABOVE` over the grip, still there, down at
-    :data:`RING_DESCENT` to :data:`RING_DEPTH` below the top, still there, close, lift :data:`LIFT`."""
+    :data:`FINAL_SPEED` to :data:`RING_DEPTH` below the top, still there, close, lift :data:`LIFT`."""
     here, _ = scene.ee_pose()
     centre, period = scene.centre(obj), scene.yaw_period(obj)
     angles = scene.yaw(obj) + period * np.arange(round(2 * np.pi / period))
@@ -273,7 +277,7 @@ def grasp_ring(scene: RobosuiteScene, obj: str, quat: np.ndarray) -> Iterator[Co
     high = np.array([*here[:2], max(here[2], above[2])])
     yield from _path([(high, 0.0)], here, quat)
     yield from _turning(high, above, quat, hand, 0.0)
-    for position in _line(above, grip, RING_DESCENT):
+    for position in _line(above, grip, FINAL_SPEED):
         yield position, hand, 0.0
     for _ in range(HOLD):  # a standstill at the grip: the learned grasp's approach ends there
         yield grip, hand, 0.0
@@ -364,11 +368,11 @@ def _arc(
 
 def open_door(scene: RobosuiteScene, quat: np.ndarray) -> Iterator[Command]:
     """Open robosuite's latched door (:meth:`~RobosuiteScene.door`): the hand turns level (:func:`level`)
-    on its way to :data:`ABOVE` in front of the lever, :data:`LEVER_GRIP` out along it, comes in and
-    closes on it; turns the lever's free end up by :data:`LEVER_TURN` about the latch's axis (up, not down:
-    pressed down, the Panda's last joint met its limit); pulls the door open by :data:`DOOR_PULL` about
-    the hinge, turns the lever back, lets go and backs off along the panel's normal. ``quat`` is unused:
-    the hand's heading is the door's."""
+    on its way to :data:`ABOVE` in front of the lever, :data:`LEVER_GRIP` out along it, comes in at
+    :data:`FINAL_SPEED`, holds still and closes on it; turns the lever's free end up by :data:`LEVER_TURN`
+    about the latch's axis (up, not down: pressed down, the Panda's last joint met its limit); pulls the
+    door open by :data:`DOOR_PULL` about the hinge, turns the lever back, lets go and backs off along the
+    panel's normal. ``quat`` is unused: the hand's heading is the door's."""
     door = scene.door()
     if door is None:
         raise ValueError("no door in this scene")
@@ -376,8 +380,11 @@ def open_door(scene: RobosuiteScene, quat: np.ndarray) -> Iterator[Command]:
     hand = level(door.outward)
     grip = door.latch + LEVER_GRIP * door.lever
     lift = 1.0 if np.cross(door.latch_axis, door.lever)[2] > 0 else -1.0
-    yield from _path([(grip + ABOVE * door.outward, 0.0), (grip, 0.0)], here, hand)
-    for gripper in (0.0, 1.0):  # the arm lags its commands: it arrives before the fingers close
+    front = grip + ABOVE * door.outward
+    yield from _path([(front, 0.0)], here, hand)
+    for position in _line(front, grip, FINAL_SPEED):
+        yield position, hand, 0.0
+    for gripper in (0.0, 1.0):
         for _ in range(HOLD):
             yield grip, hand, gripper
     steps = _arc(grip, hand, door.latch, door.latch_axis, lift * LEVER_TURN, 1.0)

@@ -7,7 +7,8 @@ Gaussian noise on each coordinate of its centre and corners (:func:`taskcond.sim
 the gripper's box exact (a robot knows its hand); the heading (yaw) of every upright free object with an
 elongated section (the cereal box; a square one, the milk's, turned a grasp by up to 45° and missed in the
 four-object scene), exact (no noise model of orientation: the kitchen perceives none); a ring's (the square
-nut's, :data:`~taskcond.worlds.robosuite.scene.RINGS`) centre and heading those of its ring; the spatial
+nut's, :data:`~taskcond.worlds.robosuite.scene.RINGS`) centre and heading those of its ring; the door's
+centre and heading its panel's (robosuite turns the door by up to 0.25 rad); the spatial
 relations by the one definition of :mod:`taskcond.relations`; ``gripper grasping X`` by robosuite's own
 ``_check_grasp`` (both finger pads on X); bins always ``open``; the door ``open`` from robosuite's success
 angle (0.3 rad) on, ``closed`` below 0.05 rad.
@@ -109,7 +110,7 @@ class RobosuiteWorld:
             n
             for n in self.scene.free
             if n not in ROUND and n not in lying and (self.scene.elongated(n) or n in RINGS)
-        ]
+        ] + [n for n in self.scene.entities if self.scene.entities[n].kind == "door"]
         angle = self.scene.door_angle()
         if angle is not None and (angle >= DOOR_OPEN or angle <= DOOR_CLOSED):
             predicates.add(ContainerState("door", angle >= DOOR_OPEN))
