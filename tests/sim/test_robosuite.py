@@ -6,13 +6,14 @@ from __future__ import annotations
 
 import json
 
+import numpy as np
 import pytest
 from typer.testing import CliRunner
 
 from taskcond.application.condition_sources import make_source
 from taskcond.application.robosuite import run_episode
 from taskcond.cli import app
-from taskcond.conditions import GripperState, Relation, SpatialRelation
+from taskcond.conditions import ContainerState, GripperState, Relation, SpatialRelation
 from taskcond.execution.skills import SkillLibrary, learn_skill
 from taskcond.worlds.robosuite.demos import record_demonstrations
 from taskcond.worlds.robosuite.scene import make_env, reset
@@ -65,6 +66,50 @@ def test_environment_information_in_the_vocabulary() -> None:
         env.close()
 
 
+def test_door_opened_by_its_oracle_then_by_the_skill_learned_from_it() -> None:
+    """The door closed, then open, in the vocabulary (its hinge angle); the oracle's demonstration teaches
+    ``open door``, which opens another draw of the door with conditions from that demonstration."""
+    env = make_env("Door")
+    try:
+        world = RobosuiteWorld(reset(env, 1))
+        obs = world.observe()
+        assert np.allclose(obs.centers["door"], world.scene.pose("door")[0])  # the panel's, not its box's
+        assert obs.yaws["door"] == pytest.approx(world.scene.yaw("door"))  # an open is turned by its change
+        assert world.affords("open", ("door",)) is None
+        assert world.affords("open", ("door frame",)) is not None  # only the door opens
+        assert world.affords("grasp", ("door",)) is not None  # nor is it picked up
+    finally:
+        env.close()
+    demos, ok = record_demonstrations("Door", seed=1)
+    assert ok and len(demos) == 1 and demos[0].target_yaw is not None
+    evidence = demos[0].evidence
+    assert evidence is not None
+    assert ContainerState("door", False) in evidence.start and ContainerState("door", True) in evidence.end
+    assert GripperState(None, "gripper") in evidence.end  # the hand let go of the lever
+    library = SkillLibrary()
+    library.add(learn_skill(demos[0]))
+    result = run_episode(TASKS["Door"], "env", 1000, library, make_source("env", library), noise=0.005)
+    assert result.success, result.reason
+    assert "door open" in result.final_predicates
+
+
+def test_square_nut_perceived_by_its_ring() -> None:
+    """The nut's centre and heading are its ring's: the handle puts its box's centre off the ring's."""
+    env = make_env("NutAssemblySquare")
+    try:
+        world = RobosuiteWorld(reset(env, 0))
+        obs = world.observe()
+        ring = world.scene.pose("square nut")[0]
+        lower, upper = obs.boxes["square nut"]
+        assert np.allclose(obs.centers["square nut"], ring)
+        assert np.linalg.norm((lower + upper) / 2 - ring) > 0.01
+        assert obs.yaw_periods["square nut"] == pytest.approx(np.pi)
+        assert obs.yaws["square nut"] == pytest.approx(world.scene.yaw("square nut"))
+        assert world.affords("move_on_top", ("square nut", "square peg")) is None
+    finally:
+        env.close()
+
+
 def test_condition_guided_lift_from_one_demonstration(tmp_path) -> None:  # type: ignore[no-untyped-def]
     """An episode from the learned skill, then the same cell through ``taskcond reproduce robosuite``."""
     demos, ok = record_demonstrations("Lift", seed=0)
@@ -80,8 +125,8 @@ def test_condition_guided_lift_from_one_demonstration(tmp_path) -> None:  # type
     assert demos[0].target_yaw is None  # a cube's square section has no heading to turn a grasp by
     args = ["reproduce", "robosuite", "--out", str(tmp_path / "out"), "--skills", str(tmp_path / "skills")]
     runner = CliRunner()
-    bad = runner.invoke(app, [*args, "--row", "Door"])
-    assert bad.exit_code == 2 and "robosuite has no row Door; valid:" in bad.output
+    bad = runner.invoke(app, [*args, "--row", "Wipe"])
+    assert bad.exit_code == 2 and "robosuite has no row Wipe; valid:" in bad.output
     done = runner.invoke(app, [*args, "--row", "Lift", "--column", "env", "--episodes", "1"])
     assert done.exit_code == 0, done.output
     table = json.loads((tmp_path / "out" / "robosuite.json").read_text())

@@ -230,7 +230,8 @@ class Approach:
         A grasp of an object that fell over stops the run: every grasp skill is demonstrated on an upright
         object, and re-grasps that cannot hold it would only spend the budget. A grasp of a round object
         whose demonstrated approach would bring the hand against a neighbour comes from another side
-        (:meth:`_turn`); one with a perceived heading is turned by its change (:meth:`_grasp_turn`). A
+        (:meth:`_turn`); any primitive aimed at a target with a perceived heading (a grasp of the cereal box,
+        the opening of robosuite's door) is turned by its change (:meth:`_demo_turn`). A
         grasp whose hand is far from every demonstrated start goes to the highest one first (:meth:`_far`,
         :meth:`_transit`), and so does an open or close, unless the primitive is tried again (``retry``):
         the failed try came from there (a retried grasp starts above the object, where :meth:`_back_off`
@@ -265,8 +266,8 @@ class Approach:
         scale = _empty_hand_scale(task, skill, obs)
         descent = grasp and target is not None and _tall(target_name, obs) and _descends(skill)
         turn = 0.0
-        if grasp and target is not None and target_name is not None and skill.segments[0].anchor == "target":
-            turn = self._grasp_turn(skill, target_name, target, obs, far, scale, descent)
+        if target is not None and target_name is not None and skill.segments[0].anchor == "target":
+            turn = self._demo_turn(skill, target_name, target, obs, far, scale, descent, grasp)
         aside = np.zeros(3)
         if carry and target is not None and target_name is not None:
             aside = carry_shift(task, skill, obs, here)
@@ -337,7 +338,7 @@ class Approach:
             )
         return choice, skill
 
-    def _grasp_turn(
+    def _demo_turn(
         self,
         skill: Skill,
         target_name: str,
@@ -346,15 +347,19 @@ class Approach:
         far: bool,
         scale: np.ndarray,
         descent: bool,
+        grasp: bool,
     ) -> float:
-        """The turn (rad) of a grasp's demonstration: an object with a perceived heading turned by its
-        change since the demonstration (:func:`heading_turn`); a round or narrow object (:meth:`_turnable`)
-        from a free side (:meth:`_turn`, ``descent`` its object-centred way straight down); else 0.
-        ``scale`` (3,) is the grasp offset's scaling (:func:`_empty_hand_scale`)."""
+        """The turn (rad) of a demonstration aimed at ``target_name``: a target with a perceived heading
+        turned by its change since the demonstration (:func:`heading_turn`), whatever the primitive (a
+        grasp of the cereal box; the opening of robosuite's door, which robosuite places turned by up to
+        0.25 rad: its lever, and the way the door swings, turn with it); for a ``grasp`` of a round or
+        narrow object (:meth:`_turnable`), a free side (:meth:`_turn`, ``descent`` its object-centred way
+        straight down); else 0. ``scale`` (3,) is the grasp offset's scaling (:func:`_empty_hand_scale`).
+        The kitchen perceives no headings: there only grasps turn."""
         if target_name in obs.yaws and skill.target_yaw is not None:
             period = obs.yaw_periods.get(target_name, math.pi)
             return heading_turn(obs.yaws[target_name] - skill.target_yaw, period)
-        if self._turnable(target_name, obs):
+        if grasp and self._turnable(target_name, obs):
             return self._turn(skill, target_name, target, obs, far, scale, descent)
         return 0.0
 

@@ -45,10 +45,11 @@ class Observation:
             demonstrated on an upright object cannot hold them.
         shapes: free object → its shape class (``cylinder``, ``vessel``, ``box``, ``sphere``, ``flat``,
             ``mesh``): what :func:`taskcond.execution.skills.dissimilarity` compares beside the boxes.
-        yaws: free object name → its heading about the world's vertical, rad (the angle from world x of
-            the horizontal part of its own x axis), for the upright, not round objects a world perceives it
-            of; a grasp of one is turned by its heading's change since the skill's demonstration (a box
-            held across its narrow side). Empty where a world perceives no orientation (the kitchen).
+        yaws: object name → its heading about the world's vertical, rad (the angle from world x of the
+            horizontal part of its own x axis), for the upright, not round free objects, and the hinged
+            ones, a world perceives it of; a primitive aimed at one is turned by its heading's change since
+            the skill's demonstration (a box held across its narrow side, a door turned on its base).
+            Empty where a world perceives no orientation (the kitchen).
         yaw_periods: object name → the turn (rad) about the vertical after which it looks the same (π for
             a rectangular section, π/2 for a square one), for each object of :attr:`yaws`.
     """

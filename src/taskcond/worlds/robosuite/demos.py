@@ -23,12 +23,21 @@ from taskcond.worlds.robosuite.scene import make_env, reset
 from taskcond.worlds.robosuite.tasks import Command, down, get_task, oracle
 from taskcond.worlds.robosuite.world import RobosuiteWorld
 
-ORACLE_REVISION = 5
+ORACLE_REVISION = 11
 """Revision of the robosuite oracles the default library is learned from; raised whenever their
 demonstrations change, so that an older library is not picked up by default."""
 SETTLE = 5
 """Control steps the last command of a demonstration is held before its end is observed."""
-DEMONSTRATED = ("Lift", "Stack", "PickPlaceMilk", "PickPlaceBread", "PickPlaceCereal", "PickPlaceCan")
+DEMONSTRATED = (
+    "Lift",
+    "Stack",
+    "PickPlaceMilk",
+    "PickPlaceBread",
+    "PickPlaceCereal",
+    "PickPlaceCan",
+    "Door",
+    "NutAssemblySquare",
+)
 """Tasks demonstrated by default: one demonstration of each of their primitive steps (the four-object
 PickPlace reuses the single-object skills: the same primitive task names)."""
 

@@ -63,6 +63,12 @@ CONTACT_DISTANCE = 0.002
 """MuJoCo contacts with a larger distance (m; within the geoms' margins) are not touches."""
 LYING = np.cos(np.radians(45.0))
 """A free object whose own z axis has a smaller world-z component (tilted more than 45°) lies."""
+RINGS = {"square nut": np.pi}
+"""Free objects that are held and placed by a ring, and the turn (rad) about the ring's centre (the object's
+body origin) after which the ring and the walls a hand holds it by look the same: the square nut's ring,
+held across its ±y walls, turned by half a turn (its handle on the +x wall then points the other way,
+which neither the hold nor the peg minds). Their centre is the ring's (:meth:`RobosuiteScene.centre`),
+their heading's period this (:meth:`RobosuiteScene.yaw_period`)."""
 FAR = 5.0
 """A free object farther than this (m) from the origin is not in the scene: robosuite parks the objects a
 single-object PickPlace or NutAssembly does not use at (10, 10, 10)."""
@@ -95,6 +101,29 @@ class Touching:
     a: str
     b: str
     position: np.ndarray
+
+
+@dataclass(frozen=True, eq=False)
+class Door:
+    """robosuite's Door at one moment, world frame: a panel on a vertical hinge, latched shut until its
+    lever is turned about the latch's axis (the panel's normal) by about 1.25 rad (measured; robosuite's
+    latch joint stops at ±1.57 rad and springs back).
+
+    Attributes:
+        hinge: (3,) m, a point of the hinge's axis.
+        hinge_axis: (3,) unit; the door opens turning positively about it (robosuite's hinge angle).
+        latch: (3,) m, the point of the latch's axis level with the lever's middle (the lever's root).
+        latch_axis: (3,) unit, normal to the panel.
+        lever: (3,) unit, from the latch's axis along the lever to its free end.
+        outward: (3,) unit, the panel's normal on the lever's side (the side the door opens to).
+    """
+
+    hinge: np.ndarray
+    hinge_axis: np.ndarray
+    latch: np.ndarray
+    latch_axis: np.ndarray
+    lever: np.ndarray
+    outward: np.ndarray
 
 
 def controller_config() -> dict[str, Any]:
@@ -173,7 +202,8 @@ class RobosuiteScene:
             body = model.body_name2id(obj.root_body)
             if obj.name == "Door":
                 out["door frame"] = Entity("door frame", "fixture", self._body_geoms("Door_frame", False))
-                out["door"] = Entity("door", "door", self._body_geoms("Door_door"), body)
+                panel = model.body_name2id("Door_door")  # its pose is the panel's, swung with the hinge
+                out["door"] = Entity("door", "door", self._body_geoms("Door_door"), panel)
                 continue
             name = OBJECT_NAMES.get(obj.name)
             if name is None or np.linalg.norm(self.sim.data.body_xpos[body]) > FAR:
@@ -316,9 +346,23 @@ class RobosuiteScene:
         return np.max([self.model.geom_aabb[g, 3:] for g in self.entities[name].geoms], axis=0)
 
     def yaw_period(self, name: str) -> float:
-        """The turn (rad) about its vertical after which a free object's box looks the same: π/2 for a
-        section whose sides differ by less than :data:`CUBE_LIKE`, else π."""
+        """The turn (rad) about its vertical after which a free object, or the door, looks the same: the
+        door's a whole turn; a ring's (:data:`RINGS`); else its box's, π/2 for a section whose sides
+        differ by less than :data:`CUBE_LIKE`, π otherwise."""
+        if name == "door":
+            return 2 * np.pi
+        if name in RINGS:
+            return RINGS[name]
         return np.pi if self.elongated(name) else np.pi / 2
+
+    def centre(self, name: str) -> np.ndarray:
+        """Centre (3,) m, world frame, of a named thing: a ring's (:data:`RINGS`) or the door's, its body
+        origin (the ring's centre; the panel's, about which a turn of the door is a turn of its lever),
+        else its box's (the door's box, its lever sticking out, shifted 2.5 cm with the door's turn)."""
+        if name in RINGS or name == "door":
+            return self.pose(name)[0]
+        lower, upper = self.box(name)
+        return (lower + upper) / 2
 
     def elongated(self, name: str) -> bool:
         """Whether a free object's horizontal section has sides differing by :data:`CUBE_LIKE` or more."""
@@ -373,6 +417,27 @@ class RobosuiteScene:
             return None
         return float(self.sim.data.qpos[self.env.hinge_qpos_addr])
 
+    def door(self) -> Door | None:
+        """The door's hinge, latch and lever now (:class:`Door`), or None without a door."""
+        if "door" not in self.entities:
+            return None
+        data = self.sim.data
+        hinge, latch = (self.model.joint_name2id(j) for j in self.env.door.joints[:2])
+        lever = self.model.geom_name2id(f"{self.env.door.naming_prefix}handle")
+        point, axis = np.array(data.xanchor[latch]), np.array(data.xaxis[latch])
+        centre = np.array(data.geom_xpos[lever])
+        along = centre - point
+        out = float(along @ axis)
+        along = along - out * axis
+        return Door(
+            hinge=np.array(data.xanchor[hinge]),
+            hinge_axis=np.array(data.xaxis[hinge]),
+            latch=point + out * axis,
+            latch_axis=axis,
+            lever=along / np.linalg.norm(along),
+            outward=axis if out > 0 else -axis,
+        )
+
     # --------------------------------------------------------------------------------------- control
     def step(self, position: np.ndarray, orientation: np.ndarray, gripper: float) -> str | None:
         """One control step of the OSC towards the end-effector pose (position (3,) m, orientation (4,)
@@ -422,7 +487,9 @@ __all__ = [
     "CONTROL_FREQ",
     "DOOR_OPEN",
     "OBJECT_NAMES",
+    "RINGS",
     "ROUND",
+    "Door",
     "RobosuiteScene",
     "Touching",
     "controller_config",

@@ -4,10 +4,12 @@ that do it, a scripted oracle per primitive (robosuite ships no scripted experts
 
 An oracle plans from the true state of the scene when its primitive starts (MuJoCo's poses, never the
 perceived ones) and yields end-effector commands, one per control step: (position (3,) m, orientation (4,)
-xyzw, gripper 0 open … 1 closed), world frame. Every primitive keeps the hand pointing down
-(:func:`down`); a grasp turns it about the vertical so that the fingers close across an elongated
-object's narrow side (:func:`across`; the cereal box is 10 cm long, more than the Panda's 8 cm opening),
-the primitives after it keep the heading the hand has.
+xyzw, gripper 0 open … 1 closed), world frame. Every primitive but opening the door (a level hand,
+:func:`level`, :func:`open_door`) keeps the hand pointing down (:func:`down`); a grasp turns it about the
+vertical so that the fingers close across an elongated object's narrow side (:func:`across`; the cereal
+box is 10 cm long, more than the Panda's 8 cm opening), the primitives after it keep the heading the hand
+has. A ring (the square nut) is held across a wall (:func:`grasp_ring`) and carried turned to line up with
+the square peg (:func:`carry_ring`).
 """
 
 from __future__ import annotations
@@ -16,11 +18,11 @@ from collections.abc import Iterator
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.spatial.transform import Rotation
+from scipy.spatial.transform import Rotation, Slerp
 
-from taskcond.conditions import Relation
+from taskcond.conditions import ContainerState, Relation
 from taskcond.primitives import parse_task
-from taskcond.worlds.robosuite.scene import ROUND, RobosuiteScene
+from taskcond.worlds.robosuite.scene import RINGS, ROUND, RobosuiteScene
 
 Command = tuple[np.ndarray, np.ndarray, float]
 """One control step's end-effector command: position (3,) m, orientation (4,) xyzw, gripper 0–1."""
@@ -47,6 +49,41 @@ DROP = 0.02
 """Height (m) above its place at which a carried object is let go."""
 CARRIES = (Relation.INSIDE, Relation.ABOVE)
 """The relations a carry oracle places its object in with another: into a bin, on top of a cube."""
+RING_GRIP = np.array([0.0, 0.045, 0.0])
+"""Where the hand holds a ring (:data:`~taskcond.worlds.robosuite.scene.RINGS`), m, in the ring's frame:
+across its wall at +y, or the wall at −y half a turn away (robosuite's SquareNut: an 8.75 cm square ring of
+2.1 cm walls whose middles lie 3.325 cm from the centre, the handle on the +x wall), the fingers closing
+along y, the hand 1.2 cm outside the wall's middle: coming down there, the open inner finger clears the far
+wall (over the wall's middle it brushed the far wall's top, and the learned approach ended at the
+standstill above the ring instead of at the grip); closing, it slides the ring onto the outer finger.
+Tried before: the +x wall's middle (the handle is in the outer finger's way), near a corner across a wall
+(the inner finger landed on the next wall) and across a corner (the opened inner finger kept the nut
+hanging on it)."""
+RING_DEPTH = 0.008
+"""Depth (m) below a ring's top (2 cm high) at which the hand (the end-effector site) closes on it: the
+fingers reach 8 mm below the site, so they stop 4 mm above the table (at 2 mm they touched it, which the
+LLM's conditions do not allow, and Alg. 2 moved the grasp away)."""
+FINAL_SPEED = 0.05
+"""Speed (m/s) of the hand's last 10 cm onto what it grasps, from a standstill before it, for a ring and the
+door's lever: slow, so that the arm, which lags its commands, is there when the fingers close (at
+:data:`SPEED` it was 1.8 cm high over the ring, 2.5 cm short of the lever), and so that the learned
+approach (one DMP piece, up to the standstill at the grip), which reaches its goal only at its end, comes
+in only after it has arrived in front. Tried for the ring: the descent as a DMP piece of its own, from the
+standstill above; it starts where the lagging hand is, and 4 of 10 grasps closed 1 cm high and 2 cm
+aside."""
+LEVER_GRIP = 0.125
+"""Distance (m) from the latch's axis along the door's lever (15 cm long) at which the hand holds it: far
+enough out that the hand's housing (7 cm either side of the fingers along the lever) clears the latch's
+boss, which stands 1 cm proud of the lever round the axis (at 10 cm the hand stopped 2.5 cm short)."""
+LEVER_TURN = np.radians(85.0)
+"""Turn (rad) of the door's lever that unlatches the door: the latch frees it from about 1.25 rad
+(measured by holding the latch at fixed angles and pushing the door: at 1.2 rad it stuck at 0.1 rad of
+opening, from 1.25 rad it opened to the hinge's stop); the hand, holding the lever by friction, turns it
+about 1.45 rad by this."""
+DOOR_PULL = 0.40
+"""Turn (rad) of the hand about the door's hinge: the hinge's stop (robosuite counts 0.3 rad as open)."""
+TURN_STEPS = 40
+"""Control steps of turning the lever, and of pulling the door, each (2 s at 20 Hz)."""
 
 
 @dataclass(frozen=True)
@@ -105,13 +142,15 @@ TASKS: dict[str, RobosuiteTask] = {
             tuple(s for obj in TALLEST_FIRST for s in _pick_place(obj)),
             "put each of the four objects into its bin",
         ),
+        RobosuiteTask("Door", ("open door",), "open the door"),
+        RobosuiteTask(
+            "NutAssemblySquare",
+            ("grasp square nut", "move square nut on top of square peg", "release square nut"),
+            "put the square nut onto the square peg",
+        ),
     )
 }
-"""The supported robosuite environments, by robosuite's name. Not (yet) supported: Door (its latched lever
-is turned and pulled sideways; a top-down hand cannot hold it in front of the door panel, and the
-oracle tried with a level hand did not track its poses under the OSC) and NutAssemblySquare (the nut's
-handle must be grasped at the nut's yaw, which robosuite draws uniformly; the executor's environment
-information has boxes and centres, no orientations)."""
+"""The supported robosuite environments, by robosuite's name."""
 
 
 class UnknownRobosuiteTaskError(KeyError):
@@ -212,6 +251,73 @@ def grasp(scene: RobosuiteScene, obj: str, quat: np.ndarray) -> Iterator[Command
     )
 
 
+def _turned(quat: np.ndarray, angle: float) -> np.ndarray:
+    """``quat`` (4,) xyzw turned by ``angle`` rad about the world's vertical."""
+    return (Rotation.from_rotvec([0.0, 0.0, angle]) * Rotation.from_quat(quat)).as_quat()
+
+
+def grasp_ring(scene: RobosuiteScene, obj: str, quat: np.ndarray) -> Iterator[Command]:
+    """Grasp a ring (:data:`~taskcond.worlds.robosuite.scene.RINGS`, the square nut) at :data:`RING_GRIP`,
+    of the points its symmetry makes of it the one nearest the hand, the hand pointing down with its
+    fingers closing towards the ring's centre (along the site's x axis) in whichever of its two ways is
+    nearer ``quat`` (4,) xyzw: turned on its way to :data:`ABOVE` over the grip, still there, down at
+    :data:`FINAL_SPEED` to :data:`RING_DEPTH` below the top, still there, close, lift :data:`LIFT`."""
+    here, _ = scene.ee_pose()
+    centre, period = scene.centre(obj), scene.yaw_period(obj)
+    angles = scene.yaw(obj) + period * np.arange(round(2 * np.pi / period))
+    points = [centre + Rotation.from_rotvec([0.0, 0.0, a]).apply(RING_GRIP) for a in angles]
+    k = int(np.argmin([np.linalg.norm((p - here)[:2]) for p in points]))
+    normal = Rotation.from_rotvec([0.0, 0.0, angles[k]]).apply(RING_GRIP / np.linalg.norm(RING_GRIP))
+    if normal @ Rotation.from_quat(quat).as_matrix()[:, 0] < 0.0:
+        normal = -normal
+    down_z = np.array([0.0, 0.0, -1.0])
+    hand = Rotation.from_matrix(np.column_stack([normal, np.cross(down_z, normal), down_z])).as_quat()
+    grip = np.array([*points[k][:2], scene.box(obj)[1][2] - RING_DEPTH])
+    above = grip + np.array([0.0, 0.0, ABOVE])
+    high = np.array([*here[:2], max(here[2], above[2])])
+    yield from _path([(high, 0.0)], here, quat)
+    yield from _turning(high, above, quat, hand, 0.0)
+    for position in _line(above, grip, FINAL_SPEED):
+        yield position, hand, 0.0
+    for _ in range(HOLD):  # a standstill at the grip: the learned grasp's approach ends there
+        yield grip, hand, 0.0
+    yield from _path([(grip, 0.0), (grip, 1.0), (grip + np.array([0.0, 0.0, LIFT]), 1.0)], grip, hand)
+
+
+def _turning(
+    start: np.ndarray, goal: np.ndarray, quat: np.ndarray, end: np.ndarray, gripper: float
+) -> Iterator[Command]:
+    """A straight line from ``start`` to ``goal`` (3,) m at :data:`SPEED` with the hand turning from ``quat``
+    to ``end`` (4,) xyzw on the way (turned at once, the arm of a large turn was thrown into its joint
+    limits and lost the pose), then :data:`HOLD` steps at the end."""
+    line = _line(start, goal)
+    turns = Slerp([0.0, 1.0], Rotation.from_quat([quat, end]))(np.linspace(0.0, 1.0, len(line) + 1)[1:])
+    for position, orientation in zip(line, turns.as_quat(), strict=True):
+        yield position, orientation, gripper
+    for _ in range(HOLD):
+        yield goal, end, gripper
+
+
+def carry_ring(scene: RobosuiteScene, obj: str, place: str) -> Iterator[Command]:
+    """Carry the held ring ``obj`` up and across, turning it by the least turn that brings its heading to
+    0 or π (its sides then lie along the world's axes, as robosuite's square peg's do, and the hand
+    holding it across its ±y walls closes along world y, as the arm starts: turned to ±π/2 instead, the
+    arm reaching out to the peg lost its pose in 3 of 10 runs), until its centre is above the centre of
+    ``place``'s box, hold, and lower it until its bottom is :data:`DROP` above the place's top."""
+    here, quat = scene.ee_pose()
+    turn = -float((scene.yaw(obj) + np.pi / 2) % np.pi - np.pi / 2)
+    lever = Rotation.from_rotvec([0.0, 0.0, turn]).apply(here - scene.centre(obj))
+    hand_above_bottom = here[2] - scene.box(obj)[0][2]
+    p_lower, p_upper = scene.box(place)
+    target = (p_lower + p_upper) / 2 + lever
+    high = max(here[2], p_upper[2] + hand_above_bottom + CLEARANCE)
+    end = _turned(quat, turn)
+    top, over = np.array([*here[:2], high]), np.array([*target[:2], high])
+    yield from _path([(top, 1.0)], here, quat)
+    yield from _turning(top, over, quat, end, 1.0)
+    yield from _path([(np.array([*target[:2], p_upper[2] + DROP + hand_above_bottom]), 1.0)], over, end)
+
+
 def release(scene: RobosuiteScene, obj: str, quat: np.ndarray) -> Iterator[Command]:
     """Open where the hand is, then rise :data:`LIFT`."""
     here, _ = scene.ee_pose()
@@ -219,8 +325,12 @@ def release(scene: RobosuiteScene, obj: str, quat: np.ndarray) -> Iterator[Comma
 
 
 def carry(scene: RobosuiteScene, obj: str, place: str, quat: np.ndarray, inside: bool) -> Iterator[Command]:
-    """Carry the held ``obj`` up, across to above ``place`` and down until its bottom is :data:`DROP`
-    above the place's floor (``inside``: a bin's bottom) or top."""
+    """Carry the held ``obj`` up, across to above ``place``, hold still there (:data:`HOLD` steps) and go
+    straight down until its bottom is :data:`DROP` above the place's floor (``inside``: a bin's bottom) or
+    top. The standstill ends the skill's approach there (:func:`~taskcond.execution.skills.split_points`):
+    learned from it, the way across is one DMP piece aimed at the place from wherever the carry starts and
+    the descent another, straight down; without it the one warped piece of a carry started elsewhere than
+    demonstrated came down over the target bin's divider (BENCHMARKS.md, seed 1001)."""
     here, _ = scene.ee_pose()
     lower, _ = scene.box(obj)
     hand_above_bottom = here[2] - lower[2]
@@ -228,15 +338,64 @@ def carry(scene: RobosuiteScene, obj: str, place: str, quat: np.ndarray, inside:
     target = (p_lower + p_upper) / 2
     floor = p_lower[2] if inside else p_upper[2]
     high = max(here[2], p_upper[2] + hand_above_bottom + CLEARANCE)
-    yield from _path(
-        [
-            (np.array([*here[:2], high]), 1.0),
-            (np.array([*target[:2], high]), 1.0),
-            (np.array([*target[:2], floor + DROP + hand_above_bottom]), 1.0),
-        ],
-        here,
-        quat,
-    )
+    over = np.array([*target[:2], high])
+    yield from _path([(np.array([*here[:2], high]), 1.0), (over, 1.0)], here, quat)
+    for _ in range(HOLD):
+        yield over, quat, 1.0
+    yield from _path([(np.array([*target[:2], floor + DROP + hand_above_bottom]), 1.0)], over, quat)
+
+
+def level(outward: np.ndarray) -> np.ndarray:
+    """The hand level, pointing horizontally against ``outward`` (3,) (at a door's panel) with its fingers
+    closing vertically (they close along the end-effector site's x axis, measured), xyzw (4,)."""
+    z = -np.array([outward[0], outward[1], 0.0])
+    z /= np.linalg.norm(z)
+    x = np.array([0.0, 0.0, -1.0])
+    return Rotation.from_matrix(np.column_stack([x, np.cross(z, x), z])).as_quat()
+
+
+def _arc(
+    here: np.ndarray, quat: np.ndarray, centre: np.ndarray, axis: np.ndarray, angle: float, gripper: float
+) -> list[Command]:
+    """:data:`TURN_STEPS` poses of the hand (position ``here`` (3,) m, orientation ``quat`` (4,) xyzw)
+    turned rigidly by up to ``angle`` rad about the line through ``centre`` (3,) along ``axis`` (3,)."""
+    out = []
+    for k in range(1, TURN_STEPS + 1):
+        turn = Rotation.from_rotvec(axis * angle * k / TURN_STEPS)
+        out.append((centre + turn.apply(here - centre), (turn * Rotation.from_quat(quat)).as_quat(), gripper))
+    return out
+
+
+def open_door(scene: RobosuiteScene, quat: np.ndarray) -> Iterator[Command]:
+    """Open robosuite's latched door (:meth:`~RobosuiteScene.door`): the hand turns level (:func:`level`)
+    on its way to :data:`ABOVE` in front of the lever, :data:`LEVER_GRIP` out along it, comes in at
+    :data:`FINAL_SPEED`, holds still and closes on it; turns the lever's free end up by :data:`LEVER_TURN`
+    about the latch's axis (up, not down: pressed down, the Panda's last joint met its limit); pulls the
+    door open by :data:`DOOR_PULL` about the hinge, turns the lever back, lets go and backs off along the
+    panel's normal. ``quat`` is unused: the hand's heading is the door's."""
+    door = scene.door()
+    if door is None:
+        raise ValueError("no door in this scene")
+    here, _ = scene.ee_pose()
+    hand = level(door.outward)
+    grip = door.latch + LEVER_GRIP * door.lever
+    lift = 1.0 if np.cross(door.latch_axis, door.lever)[2] > 0 else -1.0
+    front = grip + ABOVE * door.outward
+    yield from _path([(front, 0.0)], here, hand)
+    for position in _line(front, grip, FINAL_SPEED):
+        yield position, hand, 0.0
+    for gripper in (0.0, 1.0):
+        for _ in range(HOLD):
+            yield grip, hand, gripper
+    steps = _arc(grip, hand, door.latch, door.latch_axis, lift * LEVER_TURN, 1.0)
+    pulled, turned = steps[-1][0], steps[-1][1]
+    steps += _arc(pulled, turned, door.hinge, door.hinge_axis, DOOR_PULL, 1.0)
+    swing = Rotation.from_rotvec(door.hinge_axis * DOOR_PULL)
+    latch = door.hinge + swing.apply(door.latch - door.hinge)
+    steps += _arc(*steps[-1][:2], latch, swing.apply(door.latch_axis), -lift * LEVER_TURN, 1.0)
+    yield from steps
+    end, end_quat, _ = steps[-1]
+    yield from _path([(end, 1.0), (end, 0.0), (end + ABOVE * swing.apply(door.outward), 0.0)], end, end_quat)
 
 
 def oracle(scene: RobosuiteScene, task_name: str, quat: np.ndarray) -> Iterator[Command]:
@@ -254,14 +413,20 @@ def oracle(scene: RobosuiteScene, task_name: str, quat: np.ndarray) -> Iterator[
     task = parse_task(task_name)
     primitive = task.primitive
     if primitive.grasps:
+        if task.objects[0] in RINGS:
+            return grasp_ring(scene, task.objects[0], quat)
         return grasp(scene, task.objects[0], quat)
     if primitive.lets_go:
         return release(scene, task.objects[0], down(scene))
+    if primitive.places is Relation.ABOVE and task.objects[0] in RINGS:
+        return carry_ring(scene, *task.objects)
     if primitive.places in CARRIES and len(task.objects) == 2:
         return carry(scene, *task.objects, down(scene), inside=primitive.places is Relation.INSIDE)
+    if primitive.effect(*task.objects) == ContainerState("door", True):
+        return open_door(scene, quat)
     raise ValueError(
         f"no robosuite oracle for {task.name!r}; oracles: a grasp, a let-go, a carry placing an object "
-        f"{' or '.join(str(r) for r in CARRIES)} another"
+        f"{' or '.join(str(r) for r in CARRIES)} another, opening the door"
     )
 
 

@@ -6,7 +6,9 @@ Environment information (§III-A.2) is made as in the kitchen: the ground-truth 
 Gaussian noise on each coordinate of its centre and corners (:func:`taskcond.sim.perception._add_noise`),
 the gripper's box exact (a robot knows its hand); the heading (yaw) of every upright free object with an
 elongated section (the cereal box; a square one, the milk's, turned a grasp by up to 45° and missed in the
-four-object scene), exact (no noise model of orientation: the kitchen perceives none); the spatial
+four-object scene), exact (no noise model of orientation: the kitchen perceives none); a ring's (the square
+nut's, :data:`~taskcond.worlds.robosuite.scene.RINGS`) centre and heading those of its ring; the door's
+centre and heading its panel's (robosuite turns the door by up to 0.25 rad); the spatial
 relations by the one definition of :mod:`taskcond.relations`; ``gripper grasping X`` by robosuite's own
 ``_check_grasp`` (both finger pads on X); bins always ``open``; the door ``open`` from robosuite's success
 angle (0.3 rad) on, ``closed`` below 0.05 rad.
@@ -24,7 +26,7 @@ from taskcond.execution.world import Observation, Touch
 from taskcond.primitives import get_primitive
 from taskcond.sim.perception import ObjectBox, _add_noise, spatial_relations
 from taskcond.sim.recording import VideoRecorder
-from taskcond.worlds.robosuite.scene import DOOR_CLOSED, DOOR_OPEN, ROUND, RobosuiteScene
+from taskcond.worlds.robosuite.scene import DOOR_CLOSED, DOOR_OPEN, RINGS, ROUND, RobosuiteScene
 
 REACH = 0.95
 """Reach (m) of the Panda's end effector from its shoulder (as :data:`taskcond.worlds.kitchen.REACH`)."""
@@ -96,7 +98,7 @@ class RobosuiteWorld:
         boxes = {}
         for name in self.scene.objects:
             lower, upper = self.scene.box(name)
-            box = ObjectBox(name, (lower + upper) / 2.0, lower, upper)
+            box = ObjectBox(name, self.scene.centre(name), lower, upper)
             boxes[name] = _add_noise(box, self.noise_sigma, self._rng) if self.noise_sigma > 0 else box
         lower, upper, centre = self.scene.gripper_box()
         boxes["gripper"] = ObjectBox("gripper", centre, lower, upper)
@@ -104,7 +106,11 @@ class RobosuiteWorld:
         predicates.add(GripperState(self.scene.grasped(), "gripper"))
         predicates.update(ContainerState(c, True) for c in self.scene.containers)
         lying = self.scene.lying()
-        headed = [n for n in self.scene.free if n not in ROUND and n not in lying and self.scene.elongated(n)]
+        headed = [
+            n
+            for n in self.scene.free
+            if n not in ROUND and n not in lying and (self.scene.elongated(n) or n in RINGS)
+        ] + [n for n in self.scene.entities if self.scene.entities[n].kind == "door"]
         angle = self.scene.door_angle()
         if angle is not None and (angle >= DOOR_OPEN or angle <= DOOR_CLOSED):
             predicates.add(ContainerState("door", angle >= DOOR_OPEN))
