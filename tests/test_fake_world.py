@@ -42,8 +42,15 @@ class TableTopWorld:
     ground = ("table",)
     objects = ("table", "bottle", "can", "box")
 
-    def __init__(self, hand=(0.3, 0.0, 0.5), holding: str | None = None, can=(0.6, -0.3, 0.06)) -> None:
+    def __init__(
+        self,
+        hand=(0.3, 0.0, 0.5),
+        holding: str | None = None,
+        can=(0.6, -0.3, 0.06),
+        floor: float = -np.inf,
+    ) -> None:
         self.hand = np.array(hand, float)
+        self.floor = floor
         self.centers = {
             "bottle": np.array([0.5, 0.1, 0.06]),
             "can": np.array(can),
@@ -95,6 +102,7 @@ class TableTopWorld:
 
     def step(self, position: np.ndarray, orientation: np.ndarray, gripper: float) -> str | None:
         self.hand = np.asarray(position, float)[:3].copy()
+        self.hand[2] = max(self.hand[2], self.floor)
         self.steps += 1
         closed = gripper > 0.5
         if closed and self.held is None:
@@ -275,6 +283,23 @@ def test_a_contact_with_the_target_of_a_move_in_front_moves_the_goal_away_from_t
     into = Aim("move bottle into box", skill, "box", box)
     assert executor._goal_shift(touch, place, beside, set())[0] < 0  # away from the box
     assert executor._goal_shift(touch, place, into, set())[0] > 0  # towards its centre
+
+
+def test_a_relative_piece_counts_from_the_previous_pieces_goal_not_from_a_hand_held_back():
+    """Issue 31 (LHT2 seed 1001): something 2 cm over the grasp point holds the hand back on its way down;
+    the next piece (the lift, 12 cm up) counts from the grasp point it was to reach, not from the hand."""
+    world = TableTopWorld(floor=0.15)
+    grip = world.centers["bottle"] + [0.0, 0.0, GRASP_HEIGHT]
+    goals: list[np.ndarray] = []
+
+    class Goals:
+        def moving(self, path, goal, monitor, closed) -> None:
+            goals.append(np.array(goal))
+
+    executor = Executor(world, _library(), "env", TableConditions(), CONFIG, observer=Goals())
+    assert executor.run(["grasp bottle"]).completed
+    assert np.allclose(goals[-2], grip, atol=1e-6)  # the way down, held back at 0.15
+    assert np.allclose(goals[-1], grip + np.array([0.0, 0.0, 0.12]), atol=1e-6)  # not 0.15 + 0.12
 
 
 def test_the_planner_opens_the_box_before_the_hand_is_full():
