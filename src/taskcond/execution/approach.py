@@ -116,6 +116,21 @@ class Aim:
         return self.skill.arms
 
 
+@dataclass(frozen=True)
+class CarriedWay:
+    """How the hand goes to a skill's start (:meth:`Approach._carried_way`).
+
+    Attributes:
+        approach: (3,) m, world frame, where the transit ends (:attr:`Aim.approach`), or None.
+        over: least height (m, world z) of the transit when it carries an object (:attr:`Aim.over`), or None.
+        descent: the first piece comes straight down from ``approach`` (:attr:`Aim.descent`).
+    """
+
+    approach: np.ndarray | None
+    over: float | None
+    descent: bool
+
+
 class Approach:
     """The approach geometry of the :class:`~taskcond.execution.executor.Executor` (its base class): what it
     needs is the world, the skill library, the constants, the hand, the event log, and a control step
@@ -270,18 +285,47 @@ class Approach:
         aside = np.zeros(3)
         if carry and target is not None and target_name is not None:
             aside = carry_shift(task, skill, obs, here)
-        if parsed.primitive.places is Relation.ABOVE and target is not None and target_name is not None:
-            aside = aside + self._aside(skill, target_name, target + aside, obs)
+        if parsed.primitive.places in PLACED and target is not None and target_name is not None:
+            aside = aside + self._aside(skill, target_name, target + aside, obs, parsed.primitive.places)
         approach = target + aside + turned(skill.start_offset, turn) if far and target is not None else None
         if descent:
             approach = self._pregrasp(skill, target_name, target, obs, turn, scale)
-        over = None
-        if carry and approach is not None:
-            over = _carry_height(parsed.objects[0], here, approach, obs, self.world.arms)
+        way = CarriedWay(approach, None, descent)
+        if carry and approach is not None and target is not None:
+            way = self._carried_way(task, skill, target + aside, approach, obs, here)
         aimed = None if target is None else target + aside
-        return Aim(
-            task, skill, target_name, aimed, turn, aside, approach, over, scale, choice.reason, descent
-        )
+        placed = (task, skill, target_name, aimed, turn, aside, way.approach, way.over)
+        return Aim(*placed, scale, choice.reason, way.descent)
+
+    def _carried_way(
+        self,
+        task: str,
+        skill: Skill,
+        target: np.ndarray,
+        approach: np.ndarray,
+        obs: Observation,
+        here: np.ndarray,
+    ) -> CarriedWay:
+        """The way of a carry that starts with a transit to ``approach`` (3,) m (the skill's demonstrated
+        start relative to ``target``, the target's centre with the place's shift, (3,) m), from the hand at
+        ``here`` (3,) m: over what lies on the way (:func:`_carry_height`). A move on top of a target the
+        skill was not demonstrated on (the cabinet borrowing the box's) goes to :data:`PLACE_DESCENT` straight
+        above the place instead and comes straight down (:attr:`Aim.descent`, issue 31): the demonstrated
+        way, which rises beside the box and over its edge, runs into the front of a taller or deeper target
+        (the toothpaste carried into the cabinet's top drawer)."""
+        parsed = parse_task(task)
+        held, target_name = parsed.objects[0], parsed.objects[-1]
+        first, descent = skill.segments[0], False
+        borrowed = target_name != parse_task(skill.task_name).objects[-1]
+        if (
+            parsed.primitive.places is Relation.ABOVE
+            and borrowed
+            and first.anchor == "target"
+            and skill.arms == 1
+        ):
+            approach = first.goal(first.dmp.y0, target) + np.array([0.0, 0.0, PLACE_DESCENT])
+            descent = True
+        return CarriedWay(approach, _carry_height(held, here, approach, obs, self.world.arms), descent)
 
     def _turnable(self, target_name: str, obs: Observation) -> bool:
         """Whether a grasp of ``target_name`` may come from another side (:meth:`_turn`): a round object,
@@ -404,18 +448,27 @@ class Approach:
             here = waypoint
         return np.array(points)
 
-    def _aside(self, skill: Skill, target_name: str, target: np.ndarray, obs: Observation) -> np.ndarray:
-        """Where on top of ``target_name`` (centre ``target`` (3,) m) the carried object goes: the
-        demonstrated spot (the skill's end: the approach's goal plus the later pieces' displacements), or
-        when the carried object's footprint there (its perceived box, carried with the hand) comes nearer
-        than :attr:`ExecutionConfig.clearance` to another object's box, the nearest spot that is clear, in
-        steps of 2 cm up to 20 cm in 16 directions, with the object's centre still over ``target_name``'s
-        box and the hand's goals within reach. When the carried object's bottom would end more than
+    def _aside(
+        self,
+        skill: Skill,
+        target_name: str,
+        target: np.ndarray,
+        obs: Observation,
+        relation: Relation = Relation.ABOVE,
+    ) -> np.ndarray:
+        """Where on top of (``relation`` ABOVE) or in front of (IN_FRONT_OF) ``target_name`` (centre
+        ``target`` (3,) m) the carried object goes: the demonstrated spot (the skill's end: the approach's
+        goal plus the later pieces' displacements), or when the carried object's footprint there (its
+        perceived box, carried with the hand) comes nearer than :attr:`ExecutionConfig.clearance` to another
+        object's box, the nearest spot that is clear, in steps of 2 cm up to 20 cm in 16 directions, where
+        the object still stands in ``relation`` to ``target_name`` (:func:`_keeps_place`) and the hand's
+        goals are within reach. On top: when the carried object's bottom would end more than
         :data:`PLACE_ABOVE` below the top of ``target_name``'s box, the goal is raised to put it that much
         above instead: a skill demonstrated with another object (``move_on_top-spatula-box`` for the mug)
         holds it at another height. Returns the shift (3,) m of the goal (zero when the demonstrated spot
-        is clear and high enough). A table's demonstrated spot is where the demonstration's scene had room,
-        not where a random scene has."""
+        is clear and high enough). A demonstrated spot is where the demonstration's scene had room, not
+        where a random scene has (issue 31: the cube set down in front of the box onto the bottle that
+        stood there knocked it over)."""
         zero = np.zeros(3)
         carried = obs.grasped()
         if carried is None or carried not in obs.boxes or target_name not in obs.boxes:
@@ -432,26 +485,19 @@ class Approach:
         middle = (obs.centers.get(carried, (lo + hi) / 2)[:2] - here[:2]) + end[:2]
         skip = (target_name, carried, *self.world.ground, *self.world.arms)
         others = [(a[:2], b[:2]) for name, (a, b) in obs.boxes.items() if name not in skip]
-        support_lo, support_hi = (b[:2] for b in obs.boxes[target_name])
+        support = tuple(b[:2] for b in obs.boxes[target_name])
         below = float(obs.boxes[target_name][1][2] - (end[2] - here[2] + lo[2]))
-        lift = below + PLACE_ABOVE if below > PLACE_ABOVE else 0.0
-
-        def gap(shift: np.ndarray) -> float:
-            flo, fhi = foot[0] + shift, foot[1] + shift
-            return min(
-                (float(np.linalg.norm(np.maximum(np.maximum(a - fhi, flo - b), 0.0))) for a, b in others),
-                default=np.inf,
-            )
-
-        if gap(np.zeros(2)) >= self.config.clearance:
+        lift = below + PLACE_ABOVE if below > PLACE_ABOVE and relation is Relation.ABOVE else 0.0
+        out = (middle - target[:2]) / max(float(np.linalg.norm(middle - target[:2])), 1e-9)
+        if _gap(foot, others, np.zeros(2)) >= self.config.clearance:
             return np.array([0.0, 0.0, lift])
         angles = np.linspace(0.0, 2 * math.pi, 16, endpoint=False)
         for radius in np.arange(0.02, 0.201, 0.02):
             best, best_gap = None, self.config.clearance
             for angle in angles:
                 shift = radius * np.array([math.cos(angle), math.sin(angle)])
-                inside = np.all(middle + shift >= support_lo) and np.all(middle + shift <= support_hi)
-                if not inside or (g := gap(shift)) < best_gap:
+                keeps = _keeps_place(relation, middle, shift, support, out)
+                if not keeps or (g := _gap(foot, others, shift)) < best_gap:
                     continue
                 goals = [first.goal(first.dmp.y0, target), end]
                 if all(self.world.reach_error(q + np.array([*shift, lift])) is None for q in goals):
@@ -602,9 +648,53 @@ SWEEP_TOLERANCE = 0.005
 """Penetration (m) of the arm into a neighbour on a grasp's way that :meth:`Approach._turn` lets pass (the
 fingertips brush what stands right beside the object)."""
 
+PLACE_DESCENT = 0.05
+"""Height (m) above the place from which a carry onto the top of a target its skill was not demonstrated on
+comes straight down (:meth:`Approach._carried_way`)."""
+PLACED = (Relation.ABOVE, Relation.IN_FRONT_OF)
+"""The relations a move places its object in whose demonstrated spot :meth:`Approach._aside` clears."""
 PLACE_ABOVE = 0.01
 """Height (m) of a carried object's bottom above the top of what it is set on at the end of a move on top
 when the demonstrated height would push it more than this into it (:meth:`Approach._aside`)."""
+
+
+def _gap(
+    foot: tuple[np.ndarray, np.ndarray], others: Sequence[tuple[np.ndarray, np.ndarray]], shift: np.ndarray
+) -> float:
+    """Least horizontal distance (m) from the footprint ``foot`` (lower and upper (2,) m corners) moved by
+    ``shift`` (2,) m to any of the ``others``' footprints; infinite without others."""
+    flo, fhi = foot[0] + shift, foot[1] + shift
+    return min(
+        (float(np.linalg.norm(np.maximum(np.maximum(a - fhi, flo - b), 0.0))) for a, b in others),
+        default=np.inf,
+    )
+
+
+ASIDE_OUT = 0.10
+"""Farthest (m) a carried object set down in front of its target is moved out from the demonstrated spot,
+away from the target, to clear a neighbour (:meth:`Approach._aside`)."""
+
+
+def _keeps_place(
+    relation: Relation,
+    middle: np.ndarray,
+    shift: np.ndarray,
+    support: tuple[np.ndarray, np.ndarray],
+    out: np.ndarray,
+) -> bool:
+    """Whether a carried object whose centre ends at ``middle + shift`` (each (2,) m, world x-y) still
+    stands in ``relation`` to the target whose box spans ``support`` (lower and upper (2,) m corners): over
+    it (ABOVE); in front of it (IN_FRONT_OF): moved no nearer to it along ``out`` (unit (2,), from the
+    target's centre towards the demonstrated spot ``middle``, the demonstration's front) and at most
+    :data:`ASIDE_OUT` farther, its centre across that way within the target's extent."""
+    point = middle + shift
+    lo, hi = support
+    if relation is Relation.ABOVE:
+        return bool(np.all(point >= lo) and np.all(point <= hi))
+    across = np.array([-out[1], out[0]])
+    corners = np.array([[lo[0], lo[1]], [lo[0], hi[1]], [hi[0], lo[1]], [hi[0], hi[1]]]) @ across
+    outward = float(shift @ out)
+    return bool(0.0 <= outward <= ASIDE_OUT and corners.min() <= float(point @ across) <= corners.max())
 
 
 def _tall(name: str, obs: Observation) -> bool:
