@@ -342,6 +342,12 @@ def test_a_move_on_top_of_a_target_its_skill_was_not_demonstrated_on_comes_down_
     assert can.descent and can.target is not None and can.approach is not None
     over_place = can.target + (place - box)  # the place on the can, the demonstrated offset from its centre
     assert np.allclose(can.approach[:2], over_place[:2]) and can.approach[2] > over_place[2]
+    world = TableTopWorld(hand=(0.3, 0.2, 0.2), holding="bottle")
+    result = Executor(world, library, "none", None, config).run(["move bottle on top of can"])
+    (event,) = [e for e in result.events if e.kind == EventKind.PRIMITIVE]
+    assert (
+        event.data["approach_kind"] == "place above" and "straight down from a place above" in event.message
+    )
 
 
 def test_the_planner_opens_the_box_before_the_hand_is_full():
