@@ -117,6 +117,30 @@ class Aim:
 
 
 @dataclass(frozen=True)
+class GraspAim:
+    """A grasp's aim in progress (:meth:`Approach._aim`): what :meth:`Approach._grasp_turn`,
+    :meth:`Approach._turn` and :meth:`Approach._pregrasp` share.
+
+    Attributes:
+        skill: the grasp skill.
+        target_name: the object to grasp.
+        target: (3,) m, world frame: its perceived centre.
+        obs: the observation the grasp is aimed in.
+        far: the hand goes to the skill's demonstrated start first (:meth:`Approach._far`).
+        scale: (3,) factors on the grasp's demonstrated offset (:func:`_empty_hand_scale`).
+        descent: the object-centred way straight down from above it (:attr:`Aim.descent`).
+    """
+
+    skill: Skill
+    target_name: str
+    target: np.ndarray
+    obs: Observation
+    far: bool
+    scale: np.ndarray
+    descent: bool
+
+
+@dataclass(frozen=True)
 class CarriedWay:
     """How the hand goes to a skill's start (:meth:`Approach._carried_way`).
 
@@ -279,17 +303,18 @@ class Approach:
             skill = max(choice.skills, key=lambda s: float(s.start_offset[2]))
         scale = _empty_hand_scale(task, skill, obs)
         descent = grasp and target is not None and _tall(target_name, obs) and _descends(skill)
-        turn = 0.0
+        grasping = None
         if grasp and target is not None and target_name is not None and skill.segments[0].anchor == "target":
-            turn = self._grasp_turn(skill, target_name, target, obs, far, scale, descent)
+            grasping = GraspAim(skill, target_name, target, obs, far, scale, descent)
+        turn = 0.0 if grasping is None else self._grasp_turn(grasping)
         aside = np.zeros(3)
         if carry and target is not None and target_name is not None:
             aside = carry_shift(task, skill, obs, here)
         if parsed.primitive.places in PLACED and target is not None and target_name is not None:
             aside = aside + self._aside(skill, target_name, target + aside, obs, parsed.primitive.places)
         approach = target + aside + turned(skill.start_offset, turn) if far and target is not None else None
-        if descent:
-            approach = self._pregrasp(skill, target_name, target, obs, turn, scale)
+        if descent and grasping is not None:
+            approach = self._pregrasp(grasping, turn)
         way = CarriedWay(approach, None, descent)
         if carry and approach is not None and target is not None:
             way = self._carried_way(task, skill, target + aside, approach, obs, here)
@@ -339,23 +364,16 @@ class Approach:
         lo, hi = obs.boxes[target_name]
         return bool(np.all(hi[:2] - lo[:2] < self.hand.opening))
 
-    def _pregrasp(
-        self,
-        skill: Skill,
-        target_name: str,
-        target: np.ndarray,
-        obs: Observation,
-        turn: float = 0.0,
-        scale: np.ndarray | None = None,
-    ) -> np.ndarray:
-        """(3,) m, world frame: the pre-grasp pose of an object-centred grasp (:attr:`Aim.descent`) of
-        ``target_name`` (centre ``target`` (3,) m): straight above the grasp point (the goal of the skill's
-        open piece, turned by ``turn`` rad and its offset scaled by ``scale``), as high as the demonstration
-        started above the target, and at least :data:`PREGRASP_CLEARANCE` above the top of the target's
-        perceived box, so that the fingers pass over it on their way there."""
-        grasp = skill.segments[0].goal(target, target, turn, scale)
-        top = float(obs.boxes[target_name][1][2])
-        height = max(float(target[2] + skill.start_offset[2]), top + PREGRASP_CLEARANCE)
+    @staticmethod
+    def _pregrasp(g: GraspAim, turn: float = 0.0) -> np.ndarray:
+        """(3,) m, world frame: the pre-grasp pose of an object-centred grasp (:attr:`Aim.descent`) ``g``:
+        straight above the grasp point (the goal of the skill's open piece, turned by ``turn`` rad and its
+        offset scaled by ``g.scale``), as high as the demonstration started above the target, and at least
+        :data:`PREGRASP_CLEARANCE` above the top of the target's perceived box, so that the fingers pass
+        over it on their way there."""
+        grasp = g.skill.segments[0].goal(g.target, g.target, turn, g.scale)
+        top = float(g.obs.boxes[g.target_name][1][2])
+        height = max(float(g.target[2] + g.skill.start_offset[2]), top + PREGRASP_CLEARANCE)
         return np.array([grasp[0], grasp[1], height])
 
     def _choose(
@@ -381,25 +399,15 @@ class Approach:
             )
         return choice, skill
 
-    def _grasp_turn(
-        self,
-        skill: Skill,
-        target_name: str,
-        target: np.ndarray,
-        obs: Observation,
-        far: bool,
-        scale: np.ndarray,
-        descent: bool,
-    ) -> float:
-        """The turn (rad) of a grasp's demonstration: an object with a perceived heading turned by its
-        change since the demonstration (:func:`heading_turn`); a round or narrow object (:meth:`_turnable`)
-        from a free side (:meth:`_turn`, ``descent`` its object-centred way straight down); else 0.
-        ``scale`` (3,) is the grasp offset's scaling (:func:`_empty_hand_scale`)."""
-        if target_name in obs.yaws and skill.target_yaw is not None:
-            period = obs.yaw_periods.get(target_name, math.pi)
-            return heading_turn(obs.yaws[target_name] - skill.target_yaw, period)
-        if self._turnable(target_name, obs):
-            return self._turn(skill, target_name, target, obs, far, scale, descent)
+    def _grasp_turn(self, g: GraspAim) -> float:
+        """The turn (rad) of the grasp ``g``'s demonstration: an object with a perceived heading turned by
+        its change since the demonstration (:func:`heading_turn`); a round or narrow object
+        (:meth:`_turnable`) from a free side (:meth:`_turn`); else 0."""
+        if g.target_name in g.obs.yaws and g.skill.target_yaw is not None:
+            period = g.obs.yaw_periods.get(g.target_name, math.pi)
+            return heading_turn(g.obs.yaws[g.target_name] - g.skill.target_yaw, period)
+        if self._turnable(g.target_name, g.obs):
+            return self._turn(g)
         return 0.0
 
     def _far(self, task: str, skill: Skill, offset: np.ndarray) -> bool:
@@ -507,18 +515,9 @@ class Approach:
         return np.array([0.0, 0.0, lift])
 
     # long: one search over the hand's sides; its two closures share the sampled way
-    def _turn(
-        self,
-        skill: Skill,
-        target_name: str,
-        target: np.ndarray,
-        obs: Observation,
-        far: bool,
-        scale: np.ndarray | None = None,
-        descent: bool = False,
-    ) -> float:
-        """The side a grasp of the round or narrow object ``target_name`` (centre ``target`` (3,) m,
-        :meth:`_turnable`) comes from: the demonstration turned by 0, ±π/2 or π rad about the object's
+    def _turn(self, g: GraspAim) -> float:
+        """The side the grasp ``g`` of the round or narrow object ``g.target_name`` (centre ``g.target``
+        (3,) m, :meth:`_turnable`) comes from: the demonstration turned by 0, ±π/2 or π rad about the object's
         vertical axis (a round object is held the same from every side, a narrow one across either). The
         hand's way there is what the skill's pieces with the gripper still open make of it (their DMPs
         rolled out from the hand, or from the demonstrated start when ``far``: :meth:`_far`, or straight
@@ -535,6 +534,8 @@ class Approach:
         into a box, then keeps the largest gap, wins (the demonstrated one on a tie). A hand housing
         against a neighbour cannot be repaired by Alg. 2's goal shifts, which move the fingers off the wall
         they are to hold."""
+        skill, target_name, target, obs = g.skill, g.target_name, g.target, g.obs
+        far, descent = g.far, g.descent
         arms = self.world.arms
         others = [
             (lo, hi)
@@ -558,7 +559,7 @@ class Approach:
             """(m, 3) hand positions to the grasp pose and (m, 4) orientations xyzw on the way."""
             point, quat = (target + turned(skill.start_offset, turn) if far else here), here_q
             if descent:
-                point = self._pregrasp(skill, target_name, target, obs, turn, scale)
+                point = self._pregrasp(g, turn)
             points, quats = [], []
             if far or descent:
                 path = self._transit_path(here, point)
@@ -566,7 +567,7 @@ class Approach:
                 points.append(path[::TRANSIT_EVERY])
                 quats.append(self._transit_orientations(here_q, quat, len(path))[::TRANSIT_EVERY])
             for seg in opened:
-                goal = seg.goal(point, target, turn, scale)
+                goal = seg.goal(point, target, turn, g.scale)
                 points.append(
                     rollout(
                         _conditioned(seg, point, goal, descent), point, goal, n_steps=WAY_SAMPLES
