@@ -189,7 +189,8 @@ class EventLog:
         ``descent``: ``approach`` is a pre-grasp pose above the grasp point (a grasp) or a pose above the
         place (a carry), from which the hand comes straight down, not the demonstrated start."""
         degrees = round(math.degrees(turn))
-        above = "pre-grasp pose" if parse_task(task).primitive.grasps else "place"
+        grasp = parse_task(task).primitive.grasps
+        above = "pre-grasp pose" if grasp else "place"
         moved = aside is not None and bool(np.any(aside))
         scaled = scale is not None and not np.allclose(scale, 1.0)
         self.emit(
@@ -221,7 +222,11 @@ class EventLog:
             | ({"aside": json_vector(aside)} if moved else {})
             | ({"approach": json_vector(approach)} if approach is not None else {})
             | (
-                {"approach_kind": f"{above} above" if descent else "demonstrated start"}
+                {
+                    "approach_kind": ("pre-grasp above" if grasp else "place above")
+                    if descent
+                    else "demonstrated start"
+                }
                 if approach is not None
                 else {}
             ),
