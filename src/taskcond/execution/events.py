@@ -189,8 +189,7 @@ class EventLog:
         ``descent``: ``approach`` is a pre-grasp pose above the grasp point (a grasp) or a pose above the
         place (a carry), from which the hand comes straight down, not the demonstrated start."""
         degrees = round(math.degrees(turn))
-        grasp = parse_task(task).primitive.grasps
-        above = "pre-grasp pose" if grasp else "place"
+        kind = ("pre-grasp", "pre-grasp pose") if parse_task(task).primitive.grasps else ("place", "place")
         moved = aside is not None and bool(np.any(aside))
         scaled = scale is not None and not np.allclose(scale, 1.0)
         self.emit(
@@ -211,7 +210,7 @@ class EventLog:
             + (
                 ""
                 if approach is None
-                else f", straight down from a {above} above it at {fmt_vector(approach)}"
+                else f", straight down from a {kind[1]} above it at {fmt_vector(approach)}"
                 if descent
                 else f", from its demonstrated start at {fmt_vector(approach)}"
             ),
@@ -222,11 +221,7 @@ class EventLog:
             | ({"aside": json_vector(aside)} if moved else {})
             | ({"approach": json_vector(approach)} if approach is not None else {})
             | (
-                {
-                    "approach_kind": ("pre-grasp above" if grasp else "place above")
-                    if descent
-                    else "demonstrated start"
-                }
+                {"approach_kind": f"{kind[0]} above" if descent else "demonstrated start"}
                 if approach is not None
                 else {}
             ),
