@@ -271,3 +271,30 @@ def test_a_grasp_comes_straight_down_from_above_its_object_and_turns_a_narrow_on
         assert not [e for e in result.events if e.kind == "collision"]  # nothing touched on the way
     finally:
         env.close()
+
+
+def test_a_spatula_grasp_turns_with_the_perceived_heading_and_holds() -> None:
+    """Issue 31: the kitchen perceives the heading of a flat object (the spatula), not of a round one, and
+    the demonstration keeps it; from a random start, the spatula turned 70° from where it was
+    demonstrated is grasped with the demonstration turned by the change (modulo half a turn) and held,
+    and nothing falls."""
+    library = learn_library(None, ["grasp-spatula"])
+    (skill,) = library.skills.values()
+    assert skill.target_yaw is not None
+    env = KitchenEnv(FreeTask("anything"))
+    env.reset(seed=0)
+    try:
+        random_start(env, np.random.default_rng(0))
+        yaw = skill.target_yaw + math.radians(70.0)
+        env.scene.place("spatula", env.scene.pose("spatula")[0][:2], yaw)
+        world = KitchenWorld(env)
+        obs = world.observe()
+        assert set(obs.yaws) == {"spatula"} and obs.yaws["spatula"] == pytest.approx(yaw, abs=1e-3)
+        executor = Executor(world, library, method="env", source=EnvConditions(library))
+        result = executor.run(["grasp spatula"])
+        (aim,) = [e for e in result.events if e.kind == "primitive"][:1]
+        assert aim.data["turn_degrees"] == 70
+        assert result.completed and world.observe().grasped() == "spatula"
+        assert not world.observe().lying
+    finally:
+        env.close()
