@@ -26,7 +26,13 @@ from taskcond.decompose import (
     without_carry_releases,
 )
 from taskcond.dmp import rollout
-from taskcond.execution.approach import CARRY_MARGIN, _carry_height, _support_below, heading_turn
+from taskcond.execution.approach import (
+    CARRY_MARGIN,
+    _carry_height,
+    _keeps_place,
+    _support_below,
+    heading_turn,
+)
 from taskcond.execution.collisions import CollisionMonitor, Landing, allowed_for_arms, landings, riders
 from taskcond.execution.executor import _part_way
 from taskcond.execution.skills import (
@@ -512,3 +518,17 @@ def test_a_grasp_turns_by_the_heading_change_modulo_half_a_turn() -> None:
     assert heading_turn(-pi + 0.2) == pytest.approx(0.2)
     assert -pi / 2 <= heading_turn(7.0) < pi / 2
     assert heading_turn(np.radians(71.0), pi / 2) == pytest.approx(np.radians(-19.0))  # a square section
+
+
+def test_a_place_in_front_moved_clear_of_a_neighbour_stays_in_front() -> None:
+    """Issue 31: a place in front of a box (front: -x) may move out or sideways within the box's width,
+    not nearer to it, not past its side, not more than ASIDE_OUT out; a place on top stays over it."""
+    box = (np.array([0.5, -0.3]), np.array([0.7, 0.0]))
+    middle, out = np.array([0.35, -0.15]), np.array([-1.0, 0.0])
+    assert _keeps_place(Relation.IN_FRONT_OF, middle, np.array([-0.08, 0.0]), box, out)  # out
+    assert _keeps_place(Relation.IN_FRONT_OF, middle, np.array([0.0, 0.1]), box, out)  # sideways
+    assert not _keeps_place(Relation.IN_FRONT_OF, middle, np.array([0.04, 0.0]), box, out)  # nearer
+    assert not _keeps_place(Relation.IN_FRONT_OF, middle, np.array([0.0, 0.2]), box, out)  # beside it
+    assert not _keeps_place(Relation.IN_FRONT_OF, middle, np.array([-0.12, 0.0]), box, out)  # too far
+    assert not _keeps_place(Relation.ABOVE, middle, np.zeros(2), box, out)  # not over the box
+    assert _keeps_place(Relation.ABOVE, np.array([0.6, -0.1]), np.array([0.04, 0.04]), box, out)

@@ -42,8 +42,15 @@ class TableTopWorld:
     ground = ("table",)
     objects = ("table", "bottle", "can", "box")
 
-    def __init__(self, hand=(0.3, 0.0, 0.5), holding: str | None = None, can=(0.6, -0.3, 0.06)) -> None:
+    def __init__(
+        self,
+        hand=(0.3, 0.0, 0.5),
+        holding: str | None = None,
+        can=(0.6, -0.3, 0.06),
+        floor: float = -np.inf,
+    ) -> None:
         self.hand = np.array(hand, float)
+        self.floor = floor
         self.centers = {
             "bottle": np.array([0.5, 0.1, 0.06]),
             "can": np.array(can),
@@ -95,6 +102,7 @@ class TableTopWorld:
 
     def step(self, position: np.ndarray, orientation: np.ndarray, gripper: float) -> str | None:
         self.hand = np.asarray(position, float)[:3].copy()
+        self.hand[2] = max(self.hand[2], self.floor)
         self.steps += 1
         closed = gripper > 0.5
         if closed and self.held is None:
@@ -275,6 +283,71 @@ def test_a_contact_with_the_target_of_a_move_in_front_moves_the_goal_away_from_t
     into = Aim("move bottle into box", skill, "box", box)
     assert executor._goal_shift(touch, place, beside, set())[0] < 0  # away from the box
     assert executor._goal_shift(touch, place, into, set())[0] > 0  # towards its centre
+
+
+def test_a_relative_piece_counts_from_the_previous_pieces_goal_not_from_a_hand_held_back():
+    """Issue 31 (LHT2 seed 1001): something 2 cm over the grasp point holds the hand back on its way down;
+    the next piece (the lift, 12 cm up) counts from the grasp point it was to reach, not from the hand."""
+    world = TableTopWorld(floor=0.15)
+    grip = world.centers["bottle"] + [0.0, 0.0, GRASP_HEIGHT]
+    goals: list[np.ndarray] = []
+
+    class Goals:
+        def moving(self, path, goal, monitor, closed) -> None:
+            goals.append(np.array(goal))
+
+    executor = Executor(world, _library(), "env", TableConditions(), CONFIG, observer=Goals())
+    assert executor.run(["grasp bottle"]).completed
+    assert np.allclose(goals[-2], grip, atol=1e-6)  # the way down, held back at 0.15
+    assert np.allclose(goals[-1], grip + np.array([0.0, 0.0, 0.12]), atol=1e-6)  # not 0.15 + 0.12
+
+
+def test_a_move_in_front_sets_its_object_down_beside_a_neighbour_standing_at_the_demonstrated_spot():
+    """Issue 31: the demonstrated spot in front of the box is where the demonstration's scene had room;
+    with the can standing there the goal moves out of its way, still in front of the box, not into it."""
+    box, up = np.array([0.4, -0.2, 0.05]), np.array([0.0, 0.0, 1.0])
+    place = box + np.array([-0.15, 0.0, 0.0])  # in front of the box (world -x faces the robot)
+    start = np.array([0.3, 0.0, 0.2])
+    library = _library()
+    path = [(start, 1.0, 0), (place + 0.15 * up, 1.0, 40), (place + GRASP_HEIGHT * up, 1.0, 30)]
+    library.add(learn_skill(_demo("move bottle in front of box", path, box)))
+    task = "move bottle in front of box"
+    beside = place + np.array([0.0, 0.02, 0.01])  # the can 2 cm beside the spot
+    for can, moved in (((0.6, -0.3, 0.06), False), (tuple(beside), True)):
+        world = TableTopWorld(hand=start, holding="bottle", can=can)
+        aside = Executor(world, library, "env", TableConditions(), CONFIG)._aim(task, world.observe()).aside
+        assert bool(np.any(aside != 0.0)) is moved
+        assert aside[2] == 0.0 and aside[0] <= 0.0  # not up, not towards the box
+        lateral = abs(place[1] + aside[1] - box[1])
+        assert lateral <= 0.03  # still across from the box
+        if moved:  # the bottle's footprint (6 cm) clear of the can's
+            assert max(abs(place[0] + aside[0] - can[0]), abs(place[1] + aside[1] - can[1])) >= 0.06
+
+
+def test_a_move_on_top_of_a_target_its_skill_was_not_demonstrated_on_comes_down_from_above_the_place():
+    """Issue 31: the box's move on top, borrowed for the can, goes to straight above the place on the can
+    and comes straight down; on the box itself it starts where it was demonstrated (beside the box, low)."""
+    box, up = np.array([0.4, -0.2, 0.05]), np.array([0.0, 0.0, 1.0])
+    start, place = np.array([0.1, -0.2, 0.12]), box + (0.06 + GRASP_HEIGHT + 0.01) * up
+    library = _library()
+    library.add(learn_skill(_demo("move bottle on top of box", [(start, 1.0, 0), (place, 1.0, 60)], box)))
+    config = ExecutionConfig()  # transits to a skill's start
+    aims = {}
+    for target in ("box", "can"):
+        world = TableTopWorld(hand=(0.3, 0.2, 0.2), holding="bottle")
+        executor = Executor(world, library, "env", TableConditions(), config)
+        aims[target] = executor._aim(f"move bottle on top of {target}", world.observe())
+    assert not aims["box"].descent and np.allclose(aims["box"].approach, start)
+    can = aims["can"]
+    assert can.descent and can.target is not None and can.approach is not None
+    over_place = can.target + (place - box)  # the place on the can, the demonstrated offset from its centre
+    assert np.allclose(can.approach[:2], over_place[:2]) and can.approach[2] > over_place[2]
+    world = TableTopWorld(hand=(0.3, 0.2, 0.2), holding="bottle")
+    result = Executor(world, library, "none", None, config).run(["move bottle on top of can"])
+    (event,) = [e for e in result.events if e.kind == EventKind.PRIMITIVE]
+    assert (
+        event.data["approach_kind"] == "place above" and "straight down from a place above" in event.message
+    )
 
 
 def test_the_planner_opens_the_box_before_the_hand_is_full():

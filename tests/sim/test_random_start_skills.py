@@ -131,9 +131,10 @@ def test_a_place_on_top_demonstrated_with_another_object_holds_this_one_above_th
 
 def test_a_grasp_far_from_every_demonstrated_start_goes_to_one_first() -> None:
     """The hand low beside the bowl, nearest to the start of the bowl grasp demonstrated from the bottom
-    drawer's handle (LHT2) yet 0.18 m from it: run from there, that DMP misses the bowl; the executor
-    first carries the hand to the highest demonstrated start (the primitive task's, above the bowl) and
-    the grasp holds."""
+    drawer's handle (LHT2) yet 0.18 m from it: without the approach that DMP runs from there (before issue
+    31 it missed the bowl: its later pieces counted from wherever the hand had got to, now from the
+    planned goal); with it the executor first carries the hand to the highest demonstrated start (the
+    primitive task's, above the bowl) and the grasp holds."""
     library = learn_library(None, ["grasp-bowl", "LHT2"])
     for approach in (None, 0.15):
         env = KitchenEnv(FreeTask("anything"))
@@ -152,7 +153,7 @@ def test_a_grasp_far_from_every_demonstrated_start_goes_to_one_first() -> None:
             result = executor.run(["grasp bowl"])
             (aim,) = [e for e in result.events if e.kind == "primitive"][:1]
             if approach is None:
-                assert aim.data["skill"] == "LHT2.3-grasp-bowl" and world.observe().grasped() != "bowl"
+                assert aim.data["skill"] == "LHT2.3-grasp-bowl" and "approach" not in aim.data
             else:
                 assert aim.data["skill"] == "grasp-bowl" and "demonstrated start" in aim.message
                 assert result.completed and world.observe().grasped() == "bowl"
@@ -268,5 +269,32 @@ def test_a_grasp_comes_straight_down_from_above_its_object_and_turns_a_narrow_on
         assert result.completed and obs.grasped() == "toothpaste"
         assert not obs.lying, obs.lying
         assert not [e for e in result.events if e.kind == "collision"]  # nothing touched on the way
+    finally:
+        env.close()
+
+
+def test_a_spatula_grasp_turns_with_the_perceived_heading_and_holds() -> None:
+    """Issue 31: the kitchen perceives the heading of a flat object (the spatula), not of a round one, and
+    the demonstration keeps it; from a random start, the spatula turned 70° from where it was
+    demonstrated is grasped with the demonstration turned by the change (modulo half a turn) and held,
+    and nothing falls."""
+    library = learn_library(None, ["grasp-spatula"])
+    (skill,) = library.skills.values()
+    assert skill.target_yaw is not None
+    env = KitchenEnv(FreeTask("anything"))
+    env.reset(seed=0)
+    try:
+        random_start(env, np.random.default_rng(0))
+        yaw = skill.target_yaw + math.radians(70.0)
+        env.scene.place("spatula", env.scene.pose("spatula")[0][:2], yaw)
+        world = KitchenWorld(env)
+        obs = world.observe()
+        assert set(obs.yaws) == {"spatula"} and obs.yaws["spatula"] == pytest.approx(yaw, abs=1e-3)
+        executor = Executor(world, library, method="env", source=EnvConditions(library))
+        result = executor.run(["grasp spatula"])
+        (aim,) = [e for e in result.events if e.kind == "primitive"][:1]
+        assert aim.data["turn_degrees"] == 70
+        assert result.completed and world.observe().grasped() == "spatula"
+        assert not world.observe().lying
     finally:
         env.close()

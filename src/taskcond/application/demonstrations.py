@@ -96,6 +96,7 @@ def _record(world: KitchenWorld, name: str, task_id: str, actions: Iterable[np.n
             for lo, hi in (before.boxes[o],)
         },
         hold_depth=None if held not in before.boxes else float(hand[2] - before.boxes[held][0][2]),
+        target_yaw=before.yaws.get(target) if target is not None else None,
     )
 
 

@@ -116,6 +116,45 @@ class Aim:
         return self.skill.arms
 
 
+@dataclass(frozen=True)
+class TargetAim:
+    """A primitive's aim at its target in progress (:meth:`Approach._aim`): what
+    :meth:`Approach._demo_turn`, :meth:`Approach._turn` and :meth:`Approach._pregrasp` share.
+
+    Attributes:
+        skill: the primitive's skill, its first DMP piece anchored on the target.
+        target_name: the object the primitive is aimed at.
+        target: (3,) m, world frame: its perceived centre.
+        obs: the observation the primitive is aimed in.
+        far: the hand goes to the skill's demonstrated start first (:meth:`Approach._far`).
+        scale: (3,) factors on the grasp's demonstrated offset (:func:`_empty_hand_scale`).
+        descent: the object-centred way straight down from above it (:attr:`Aim.descent`).
+    """
+
+    skill: Skill
+    target_name: str
+    target: np.ndarray
+    obs: Observation
+    far: bool
+    scale: np.ndarray
+    descent: bool
+
+
+@dataclass(frozen=True)
+class CarriedWay:
+    """How the hand goes to a skill's start (:meth:`Approach._carried_way`).
+
+    Attributes:
+        approach: (3,) m, world frame, where the transit ends (:attr:`Aim.approach`), or None.
+        over: least height (m, world z) of the transit when it carries an object (:attr:`Aim.over`), or None.
+        descent: the first piece comes straight down from ``approach`` (:attr:`Aim.descent`).
+    """
+
+    approach: np.ndarray | None
+    over: float | None
+    descent: bool
+
+
 class Approach:
     """The approach geometry of the :class:`~taskcond.execution.executor.Executor` (its base class): what it
     needs is the world, the skill library, the constants, the hand, the event log, and a control step
@@ -265,24 +304,54 @@ class Approach:
             skill = max(choice.skills, key=lambda s: float(s.start_offset[2]))
         scale = _empty_hand_scale(task, skill, obs)
         descent = grasp and target is not None and _tall(target_name, obs) and _descends(skill)
-        turn = 0.0
+        aiming = None
         if target is not None and target_name is not None and skill.segments[0].anchor == "target":
-            turn = self._demo_turn(skill, target_name, target, obs, far, scale, descent, grasp)
+            aiming = TargetAim(skill, target_name, target, obs, far, scale, descent)
+        turn = 0.0 if aiming is None else self._demo_turn(aiming, grasp)
         aside = np.zeros(3)
         if carry and target is not None and target_name is not None:
             aside = carry_shift(task, skill, obs, here)
-        if parsed.primitive.places is Relation.ABOVE and target is not None and target_name is not None:
-            aside = aside + self._aside(skill, target_name, target + aside, obs)
+        if parsed.primitive.places in PLACED and target is not None and target_name is not None:
+            aside = aside + self._aside(skill, target_name, target + aside, obs, parsed.primitive.places)
         approach = target + aside + turned(skill.start_offset, turn) if far and target is not None else None
-        if descent:
-            approach = self._pregrasp(skill, target_name, target, obs, turn, scale)
-        over = None
-        if carry and approach is not None:
-            over = _carry_height(parsed.objects[0], here, approach, obs, self.world.arms)
+        if descent and aiming is not None:
+            approach = self._pregrasp(aiming, turn)
+        way = CarriedWay(approach, None, descent)
+        if carry and approach is not None and target is not None:
+            way = self._carried_way(task, skill, target + aside, approach, obs, here)
         aimed = None if target is None else target + aside
-        return Aim(
-            task, skill, target_name, aimed, turn, aside, approach, over, scale, choice.reason, descent
-        )
+        placed = (task, skill, target_name, aimed, turn, aside, way.approach, way.over)
+        return Aim(*placed, scale, choice.reason, way.descent)
+
+    def _carried_way(
+        self,
+        task: str,
+        skill: Skill,
+        target: np.ndarray,
+        approach: np.ndarray,
+        obs: Observation,
+        here: np.ndarray,
+    ) -> CarriedWay:
+        """The way of a carry that starts with a transit to ``approach`` (3,) m (the skill's demonstrated
+        start relative to ``target``, the target's centre with the place's shift, (3,) m), from the hand at
+        ``here`` (3,) m: over what lies on the way (:func:`_carry_height`). A move on top of a target the
+        skill was not demonstrated on (the cabinet borrowing the box's) goes to :data:`PLACE_DESCENT` straight
+        above the place instead and comes straight down (:attr:`Aim.descent`, issue 31): the demonstrated
+        way, which rises beside the box and over its edge, runs into the front of a taller or deeper target
+        (the toothpaste carried into the cabinet's top drawer)."""
+        parsed = parse_task(task)
+        held, target_name = parsed.objects[0], parsed.objects[-1]
+        first, descent = skill.segments[0], False
+        borrowed = target_name != parse_task(skill.task_name).objects[-1]
+        if (
+            parsed.primitive.places is Relation.ABOVE
+            and borrowed
+            and first.anchor == "target"
+            and skill.arms == 1
+        ):
+            approach = first.goal(first.dmp.y0, target) + np.array([0.0, 0.0, PLACE_DESCENT])
+            descent = True
+        return CarriedWay(approach, _carry_height(held, here, approach, obs, self.world.arms), descent)
 
     def _turnable(self, target_name: str, obs: Observation) -> bool:
         """Whether a grasp of ``target_name`` may come from another side (:meth:`_turn`): a round object,
@@ -296,23 +365,16 @@ class Approach:
         lo, hi = obs.boxes[target_name]
         return bool(np.all(hi[:2] - lo[:2] < self.hand.opening))
 
-    def _pregrasp(
-        self,
-        skill: Skill,
-        target_name: str,
-        target: np.ndarray,
-        obs: Observation,
-        turn: float = 0.0,
-        scale: np.ndarray | None = None,
-    ) -> np.ndarray:
-        """(3,) m, world frame: the pre-grasp pose of an object-centred grasp (:attr:`Aim.descent`) of
-        ``target_name`` (centre ``target`` (3,) m): straight above the grasp point (the goal of the skill's
-        open piece, turned by ``turn`` rad and its offset scaled by ``scale``), as high as the demonstration
-        started above the target, and at least :data:`PREGRASP_CLEARANCE` above the top of the target's
-        perceived box, so that the fingers pass over it on their way there."""
-        grasp = skill.segments[0].goal(target, target, turn, scale)
-        top = float(obs.boxes[target_name][1][2])
-        height = max(float(target[2] + skill.start_offset[2]), top + PREGRASP_CLEARANCE)
+    @staticmethod
+    def _pregrasp(g: TargetAim, turn: float = 0.0) -> np.ndarray:
+        """(3,) m, world frame: the pre-grasp pose of an object-centred grasp (:attr:`Aim.descent`) ``g``:
+        straight above the grasp point (the goal of the skill's open piece, turned by ``turn`` rad and its
+        offset scaled by ``g.scale``), as high as the demonstration started above the target, and at least
+        :data:`PREGRASP_CLEARANCE` above the top of the target's perceived box, so that the fingers pass
+        over it on their way there."""
+        grasp = g.skill.segments[0].goal(g.target, g.target, turn, g.scale)
+        top = float(g.obs.boxes[g.target_name][1][2])
+        height = max(float(g.target[2] + g.skill.start_offset[2]), top + PREGRASP_CLEARANCE)
         return np.array([grasp[0], grasp[1], height])
 
     def _choose(
@@ -338,29 +400,18 @@ class Approach:
             )
         return choice, skill
 
-    def _demo_turn(
-        self,
-        skill: Skill,
-        target_name: str,
-        target: np.ndarray,
-        obs: Observation,
-        far: bool,
-        scale: np.ndarray,
-        descent: bool,
-        grasp: bool,
-    ) -> float:
-        """The turn (rad) of a demonstration aimed at ``target_name``: a target with a perceived heading
+    def _demo_turn(self, a: TargetAim, grasp: bool) -> float:
+        """The turn (rad) of the demonstration ``a`` aims at its target: a target with a perceived heading
         turned by its change since the demonstration (:func:`heading_turn`), whatever the primitive (a
-        grasp of the cereal box; the opening of robosuite's door, which robosuite places turned by up to
-        0.25 rad: its lever, and the way the door swings, turn with it); for a ``grasp`` of a round or
-        narrow object (:meth:`_turnable`), a free side (:meth:`_turn`, ``descent`` its object-centred way
-        straight down); else 0. ``scale`` (3,) is the grasp offset's scaling (:func:`_empty_hand_scale`).
-        The kitchen perceives no headings: there only grasps turn."""
-        if target_name in obs.yaws and skill.target_yaw is not None:
-            period = obs.yaw_periods.get(target_name, math.pi)
-            return heading_turn(obs.yaws[target_name] - skill.target_yaw, period)
-        if grasp and self._turnable(target_name, obs):
-            return self._turn(skill, target_name, target, obs, far, scale, descent)
+        grasp of the spatula or the cereal box; the release of the spatula, whose hand turned with it; the
+        opening of robosuite's door, which robosuite places turned by up to 0.25 rad: its lever, and the way
+        the door swings, turn with it); for a ``grasp`` of a round or narrow object (:meth:`_turnable`), a
+        free side (:meth:`_turn`); else 0."""
+        if a.target_name in a.obs.yaws and a.skill.target_yaw is not None:
+            period = a.obs.yaw_periods.get(a.target_name, math.pi)
+            return heading_turn(a.obs.yaws[a.target_name] - a.skill.target_yaw, period)
+        if grasp and self._turnable(a.target_name, a.obs):
+            return self._turn(a)
         return 0.0
 
     def _far(self, task: str, skill: Skill, offset: np.ndarray) -> bool:
@@ -409,18 +460,27 @@ class Approach:
             here = waypoint
         return np.array(points)
 
-    def _aside(self, skill: Skill, target_name: str, target: np.ndarray, obs: Observation) -> np.ndarray:
-        """Where on top of ``target_name`` (centre ``target`` (3,) m) the carried object goes: the
-        demonstrated spot (the skill's end: the approach's goal plus the later pieces' displacements), or
-        when the carried object's footprint there (its perceived box, carried with the hand) comes nearer
-        than :attr:`ExecutionConfig.clearance` to another object's box, the nearest spot that is clear, in
-        steps of 2 cm up to 20 cm in 16 directions, with the object's centre still over ``target_name``'s
-        box and the hand's goals within reach. When the carried object's bottom would end more than
+    def _aside(
+        self,
+        skill: Skill,
+        target_name: str,
+        target: np.ndarray,
+        obs: Observation,
+        relation: Relation = Relation.ABOVE,
+    ) -> np.ndarray:
+        """Where on top of (``relation`` ABOVE) or in front of (IN_FRONT_OF) ``target_name`` (centre
+        ``target`` (3,) m) the carried object goes: the demonstrated spot (the skill's end: the approach's
+        goal plus the later pieces' displacements), or when the carried object's footprint there (its
+        perceived box, carried with the hand) comes nearer than :attr:`ExecutionConfig.clearance` to another
+        object's box, the nearest spot that is clear, in steps of 2 cm up to 20 cm in 16 directions, where
+        the object still stands in ``relation`` to ``target_name`` (:func:`_keeps_place`) and the hand's
+        goals are within reach. On top: when the carried object's bottom would end more than
         :data:`PLACE_ABOVE` below the top of ``target_name``'s box, the goal is raised to put it that much
         above instead: a skill demonstrated with another object (``move_on_top-spatula-box`` for the mug)
         holds it at another height. Returns the shift (3,) m of the goal (zero when the demonstrated spot
-        is clear and high enough). A table's demonstrated spot is where the demonstration's scene had room,
-        not where a random scene has."""
+        is clear and high enough). A demonstrated spot is where the demonstration's scene had room, not
+        where a random scene has (issue 31: the cube set down in front of the box onto the bottle that
+        stood there knocked it over)."""
         zero = np.zeros(3)
         carried = obs.grasped()
         if carried is None or carried not in obs.boxes or target_name not in obs.boxes:
@@ -437,26 +497,19 @@ class Approach:
         middle = (obs.centers.get(carried, (lo + hi) / 2)[:2] - here[:2]) + end[:2]
         skip = (target_name, carried, *self.world.ground, *self.world.arms)
         others = [(a[:2], b[:2]) for name, (a, b) in obs.boxes.items() if name not in skip]
-        support_lo, support_hi = (b[:2] for b in obs.boxes[target_name])
+        support = tuple(b[:2] for b in obs.boxes[target_name])
         below = float(obs.boxes[target_name][1][2] - (end[2] - here[2] + lo[2]))
-        lift = below + PLACE_ABOVE if below > PLACE_ABOVE else 0.0
-
-        def gap(shift: np.ndarray) -> float:
-            flo, fhi = foot[0] + shift, foot[1] + shift
-            return min(
-                (float(np.linalg.norm(np.maximum(np.maximum(a - fhi, flo - b), 0.0))) for a, b in others),
-                default=np.inf,
-            )
-
-        if gap(np.zeros(2)) >= self.config.clearance:
+        lift = below + PLACE_ABOVE if below > PLACE_ABOVE and relation is Relation.ABOVE else 0.0
+        out = (middle - target[:2]) / max(float(np.linalg.norm(middle - target[:2])), 1e-9)
+        if _gap(foot, others, np.zeros(2)) >= self.config.clearance:
             return np.array([0.0, 0.0, lift])
         angles = np.linspace(0.0, 2 * math.pi, 16, endpoint=False)
         for radius in np.arange(0.02, 0.201, 0.02):
             best, best_gap = None, self.config.clearance
             for angle in angles:
                 shift = radius * np.array([math.cos(angle), math.sin(angle)])
-                inside = np.all(middle + shift >= support_lo) and np.all(middle + shift <= support_hi)
-                if not inside or (g := gap(shift)) < best_gap:
+                keeps = _keeps_place(relation, middle, shift, support, out)
+                if not keeps or (g := _gap(foot, others, shift)) < best_gap:
                     continue
                 goals = [first.goal(first.dmp.y0, target), end]
                 if all(self.world.reach_error(q + np.array([*shift, lift])) is None for q in goals):
@@ -466,18 +519,9 @@ class Approach:
         return np.array([0.0, 0.0, lift])
 
     # long: one search over the hand's sides; its two closures share the sampled way
-    def _turn(
-        self,
-        skill: Skill,
-        target_name: str,
-        target: np.ndarray,
-        obs: Observation,
-        far: bool,
-        scale: np.ndarray | None = None,
-        descent: bool = False,
-    ) -> float:
-        """The side a grasp of the round or narrow object ``target_name`` (centre ``target`` (3,) m,
-        :meth:`_turnable`) comes from: the demonstration turned by 0, ±π/2 or π rad about the object's
+    def _turn(self, g: TargetAim) -> float:
+        """The side the grasp ``g`` of the round or narrow object ``g.target_name`` (centre ``g.target``
+        (3,) m, :meth:`_turnable`) comes from: the demonstration turned by 0, ±π/2 or π rad about the object's
         vertical axis (a round object is held the same from every side, a narrow one across either). The
         hand's way there is what the skill's pieces with the gripper still open make of it (their DMPs
         rolled out from the hand, or from the demonstrated start when ``far``: :meth:`_far`, or straight
@@ -494,6 +538,8 @@ class Approach:
         into a box, then keeps the largest gap, wins (the demonstrated one on a tie). A hand housing
         against a neighbour cannot be repaired by Alg. 2's goal shifts, which move the fingers off the wall
         they are to hold."""
+        skill, target_name, target, obs = g.skill, g.target_name, g.target, g.obs
+        far, descent = g.far, g.descent
         arms = self.world.arms
         others = [
             (lo, hi)
@@ -517,7 +563,7 @@ class Approach:
             """(m, 3) hand positions to the grasp pose and (m, 4) orientations xyzw on the way."""
             point, quat = (target + turned(skill.start_offset, turn) if far else here), here_q
             if descent:
-                point = self._pregrasp(skill, target_name, target, obs, turn, scale)
+                point = self._pregrasp(g, turn)
             points, quats = [], []
             if far or descent:
                 path = self._transit_path(here, point)
@@ -525,7 +571,7 @@ class Approach:
                 points.append(path[::TRANSIT_EVERY])
                 quats.append(self._transit_orientations(here_q, quat, len(path))[::TRANSIT_EVERY])
             for seg in opened:
-                goal = seg.goal(point, target, turn, scale)
+                goal = seg.goal(point, target, turn, g.scale)
                 points.append(
                     rollout(
                         _conditioned(seg, point, goal, descent), point, goal, n_steps=WAY_SAMPLES
@@ -607,9 +653,53 @@ SWEEP_TOLERANCE = 0.005
 """Penetration (m) of the arm into a neighbour on a grasp's way that :meth:`Approach._turn` lets pass (the
 fingertips brush what stands right beside the object)."""
 
+PLACE_DESCENT = 0.05
+"""Height (m) above the place from which a carry onto the top of a target its skill was not demonstrated on
+comes straight down (:meth:`Approach._carried_way`)."""
+PLACED = (Relation.ABOVE, Relation.IN_FRONT_OF)
+"""The relations a move places its object in whose demonstrated spot :meth:`Approach._aside` clears."""
 PLACE_ABOVE = 0.01
 """Height (m) of a carried object's bottom above the top of what it is set on at the end of a move on top
 when the demonstrated height would push it more than this into it (:meth:`Approach._aside`)."""
+
+
+def _gap(
+    foot: tuple[np.ndarray, np.ndarray], others: Sequence[tuple[np.ndarray, np.ndarray]], shift: np.ndarray
+) -> float:
+    """Least horizontal distance (m) from the footprint ``foot`` (lower and upper (2,) m corners) moved by
+    ``shift`` (2,) m to any of the ``others``' footprints; infinite without others."""
+    flo, fhi = foot[0] + shift, foot[1] + shift
+    return min(
+        (float(np.linalg.norm(np.maximum(np.maximum(a - fhi, flo - b), 0.0))) for a, b in others),
+        default=np.inf,
+    )
+
+
+ASIDE_OUT = 0.10
+"""Farthest (m) a carried object set down in front of its target is moved out from the demonstrated spot,
+away from the target, to clear a neighbour (:meth:`Approach._aside`)."""
+
+
+def _keeps_place(
+    relation: Relation,
+    middle: np.ndarray,
+    shift: np.ndarray,
+    support: tuple[np.ndarray, np.ndarray],
+    out: np.ndarray,
+) -> bool:
+    """Whether a carried object whose centre ends at ``middle + shift`` (each (2,) m, world x-y) still
+    stands in ``relation`` to the target whose box spans ``support`` (lower and upper (2,) m corners): over
+    it (ABOVE); in front of it (IN_FRONT_OF): moved no nearer to it along ``out`` (unit (2,), from the
+    target's centre towards the demonstrated spot ``middle``, the demonstration's front) and at most
+    :data:`ASIDE_OUT` farther, its centre across that way within the target's extent."""
+    point = middle + shift
+    lo, hi = support
+    if relation is Relation.ABOVE:
+        return bool(np.all(point >= lo) and np.all(point <= hi))
+    across = np.array([-out[1], out[0]])
+    corners = np.array([[lo[0], lo[1]], [lo[0], hi[1]], [hi[0], lo[1]], [hi[0], hi[1]]]) @ across
+    outward = float(shift @ out)
+    return bool(0.0 <= outward <= ASIDE_OUT and corners.min() <= float(point @ across) <= corners.max())
 
 
 def _tall(name: str, obs: Observation) -> bool:

@@ -19,6 +19,7 @@ from taskcond.execution.failures import FailureKind
 from taskcond.execution.skills import Skill
 from taskcond.execution.world import Touch
 from taskcond.grounding import ConditionRepair
+from taskcond.primitives import parse_task
 
 
 class EventKind(StrEnum):
@@ -185,9 +186,10 @@ class EventLog:
         when not 0; ``approach``: (3,) m, world frame, where the hand went first (the demonstrated start),
         or None; ``choice``: why the skill was demonstrated on other objects (empty: on these);
         ``scale``: (3,) factors on its demonstrated offset from the target (reported when not ones);
-        ``descent``: ``approach`` is a pre-grasp pose above the grasp point, from which the hand comes
-        straight down (an object-centred grasp), not the demonstrated start."""
+        ``descent``: ``approach`` is a pre-grasp pose above the grasp point (a grasp) or a pose above the
+        place (a carry), from which the hand comes straight down, not the demonstrated start."""
         degrees = round(math.degrees(turn))
+        kind = ("pre-grasp", "pre-grasp pose") if parse_task(task).primitive.grasps else ("place", "place")
         moved = aside is not None and bool(np.any(aside))
         scaled = scale is not None and not np.allclose(scale, 1.0)
         self.emit(
@@ -208,7 +210,7 @@ class EventLog:
             + (
                 ""
                 if approach is None
-                else f", straight down from a pre-grasp pose above it at {fmt_vector(approach)}"
+                else f", straight down from a {kind[1]} above it at {fmt_vector(approach)}"
                 if descent
                 else f", from its demonstrated start at {fmt_vector(approach)}"
             ),
@@ -219,7 +221,7 @@ class EventLog:
             | ({"aside": json_vector(aside)} if moved else {})
             | ({"approach": json_vector(approach)} if approach is not None else {})
             | (
-                {"approach_kind": "pre-grasp above" if descent else "demonstrated start"}
+                {"approach_kind": f"{kind[0]} above" if descent else "demonstrated start"}
                 if approach is not None
                 else {}
             ),

@@ -113,6 +113,20 @@ class ConditionSource(Protocol):
         ...
 
 
+@dataclass(frozen=True)
+class Piece:
+    """What one DMP piece of a skill did (:meth:`Executor._follow`).
+
+    Attributes:
+        adjustments: Alg. 2 goal changes made during it.
+        goal: (3k,) m, world frame: its goal as planned, with Alg. 2's changes (where the next relative
+            piece starts counting from).
+    """
+
+    adjustments: int
+    goal: np.ndarray
+
+
 @dataclass
 class ExecutionResult:
     """Outcome of :meth:`Executor.run`.
@@ -341,29 +355,42 @@ class Executor(Approach):
                 start = Rotation.from_quat(first.orientations[0, :4])
                 orientation = (start * twin_turn(start, Rotation.from_quat(here_q))).as_quat()
             self._transit(aim.approach, orientation, first.gripper, aim.over)
-        adjustments = 0
+        adjustments, planned = 0, None
         for seg in aim.skill.segments:
             if self.world.time > deadline:
                 raise ExecutionError(
                     f"{task!r} ran past its time budget of {self.config.budget:.0f} s", FailureKind.TIMEOUT
                 )
-            adjustments += self._follow(seg, aim, monitor, depth, self.config.max_adjustments - adjustments)
+            piece = self._follow(seg, aim, monitor, depth, self.config.max_adjustments - adjustments, planned)
+            adjustments, planned = adjustments + piece.adjustments, piece.goal
         for _ in range(self.config.settle_steps):
             self._step(*self._last)
 
     def _follow(
-        self, seg: Segment, aim: Aim, monitor: CollisionMonitor | None, depth: int, adjustable: int
-    ) -> int:
+        self,
+        seg: Segment,
+        aim: Aim,
+        monitor: CollisionMonitor | None,
+        depth: int,
+        adjustable: int,
+        planned: np.ndarray | None = None,
+    ) -> Piece:
         """Alg. 2 lines 5–15 for one DMP piece: GenDMP towards the piece's goal (line 5, :meth:`_gen_dmp`),
         one control step per trajectory point (line 7), and after each step the contacts checked (lines
         8–9); an unallowed collision, at most ``adjustable`` times, backs up and moves the goal (lines
-        10–13, :meth:`_adjust`). Returns the number of adjustments made.
+        10–13, :meth:`_adjust`).
+
+        The DMP starts where the hand is. A relative piece's goal is the demonstrated displacement added
+        to ``planned`` ((3k,) m), the previous piece's goal as Alg. 2 left it, not to the measured hand
+        (issue 31): a hand held back by something (under a drawer) would otherwise carry the whole skill
+        along with it (LHT2 seed 1001: the next piece's goal 0.45 m from the bowl, below the table).
+        Without ``planned`` (the first piece) it is added to the hand.
 
         Raises:
             ExecutionError: the piece's goal is out of reach, or the simulation fails.
         """
         start, start_q = self.world.ee_pose(aim.arms)
-        goal = seg.goal(start, aim.target, aim.turn, aim.scale)
+        goal = seg.goal(start if planned is None else planned, aim.target, aim.turn, aim.scale)
         reason = self.world.reach_error(goal)
         if reason is not None:
             raise ExecutionError(
@@ -390,7 +417,7 @@ class Executor(Approach):
             made += 1
             for _ in range(max(1, back // 3)):
                 self._step(back_to, orientations[k], seg.gripper)
-        return made
+        return Piece(made, np.array(rollout.goal, float))
 
     def _gen_dmp(
         self, seg: Segment, start: np.ndarray, goal: np.ndarray, descent: bool = False

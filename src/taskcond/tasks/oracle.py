@@ -19,7 +19,7 @@ SETTLE_STEPS = 10
 VIDEO_EVERY = 2
 """Record every n-th control step."""
 
-ORACLE_REVISION = 4
+ORACLE_REVISION = 5
 """Revision of the oracles' demonstrations, part of the default skill library's directory name
 (:func:`taskcond.application.library.default_library_dir`) and of the baseline's data key; raised whenever
 the demonstrations change, so that a library learned from older ones is not picked up by default (the

@@ -35,7 +35,11 @@ Franka-only demonstration: the Kinova held still."""
 
 
 def _observation(
-    info: EnvironmentInfo, round_: frozenset[str], lying: frozenset[str], shapes: dict[str, str]
+    info: EnvironmentInfo,
+    round_: frozenset[str],
+    lying: frozenset[str],
+    shapes: dict[str, str],
+    yaws: dict[str, float],
 ) -> Observation:
     return Observation(
         predicates=info.predicates,
@@ -45,8 +49,16 @@ def _observation(
         round=round_,
         lying=lying,
         shapes=shapes,
+        yaws=yaws,
     )
 
+
+HEADED = frozenset({"flat"})
+"""Shape classes (:func:`~taskcond.sim.assets.shape_class`) whose heading about the vertical the kitchen
+world perceives (:attr:`~taskcond.execution.world.Observation.yaws`, from the pose, like the robosuite
+world's elongated objects): a flat object (the spatula) is held across its length, so a grasp demonstrated
+at one heading is turned with it (issue 31: from random starts the spatula was grasped along or aslant its
+handle, pivoted in the fingers and fell out of them)."""
 
 SWEEP_WITHIN = 0.05
 """Distance (m) up to which :meth:`KitchenWorld.sweep` measures the arm's clearance."""
@@ -108,6 +120,8 @@ class KitchenWorld:
         self._round = frozenset(name for name, shape in self._shapes.items() if shape in ROUND_CLASSES)
         """Free objects of a turned-about-their-axis shape: cylinders (bottle, can), spheres and vessels
         (bowl, mug: held by the wall, which the mug's handle leaves free on most sides)."""
+        self._headed = tuple(name for name, shape in self._shapes.items() if shape in HEADED)
+        """Free objects whose heading is perceived (:data:`HEADED`)."""
         self.env_seconds = 0.0
         self._observed: tuple[int, Observation] | None = None
         """Wall-clock seconds spent inside the environment's step (IK and physics)."""
@@ -133,7 +147,9 @@ class KitchenWorld:
         observation (same noise draw), as a real robot's perception would until something moves."""
         if self._observed is None or self._observed[0] != self.env.steps:
             info = self.perception.observe(self._rng)
-            self._observed = (self.env.steps, _observation(info, self._round, self._lying(), self._shapes))
+            lying = self._lying()
+            yaws = {name: self.env.scene.yaw(name) for name in self._headed if name not in lying}
+            self._observed = (self.env.steps, _observation(info, self._round, lying, self._shapes, yaws))
         return self._observed[1]
 
     def _lying(self) -> frozenset[str]:
