@@ -18,7 +18,13 @@ import numpy as np
 from taskcond.application.episode import DEFAULT_NOISE
 from taskcond.application.kinds import EvalMethod
 from taskcond.application.ray_backend import run_on_ray
-from taskcond.application.workers import WorkerArgs, init_worker, llm_threads, run_initialized
+from taskcond.application.workers import (
+    WorkerArgs,
+    init_worker,
+    llm_threads,
+    needs_own_process,
+    run_initialized,
+)
 from taskcond.execution.config import ExecutionConfig
 from taskcond.results import (
     Job,
@@ -104,21 +110,32 @@ def run_jobs(
     ray_address: str | None = None,
 ) -> Iterator[dict[str, Any]]:
     """The records of ``jobs`` in the order they finish: in this process (``workers`` 1), in ``workers``
-    spawned processes, or as Ray tasks (:mod:`taskcond.application.ray_backend`)."""
+    spawned processes, or as Ray tasks (:mod:`taskcond.application.ray_backend`). An episode that is
+    repeatable only in a fresh process (:func:`~taskcond.application.workers.needs_own_process`: the
+    cloth's) gets one, after the others, so that its replay (:mod:`taskcond.application.replay`)
+    reproduces it."""
     if backend not in BACKENDS:
         raise ValueError(f"unknown backend {backend!r}; valid: {', '.join(BACKENDS)}")
     if not jobs:
         return
+    own = needs_own_process(jobs, init_args)
     if backend == "ray":
-        yield from run_on_ray(jobs, init_args, workers, ray_address)
-    elif workers <= 1:
+        yield from run_on_ray(jobs, init_args, workers, ray_address, own)
+        return
+    shared, alone = (
+        [j for j, o in zip(jobs, own, strict=True) if not o],
+        [j for j, o in zip(jobs, own, strict=True) if o],
+    )
+    if shared and workers <= 1:
         init_worker(init_args)
-        for job in jobs:
+        for job in shared:
             yield run_initialized(job)
-    else:
-        ctx = multiprocessing.get_context("spawn")
-        with ctx.Pool(workers, init_worker, (init_args,)) as pool:
-            yield from pool.imap_unordered(run_initialized, jobs)
+    ctx = multiprocessing.get_context("spawn")
+    for batch, per_process in ((shared if workers > 1 else [], None), (alone, 1)):
+        if batch:
+            processes = max(1, min(workers, len(batch)))
+            with ctx.Pool(processes, init_worker, (init_args,), maxtasksperchild=per_process) as pool:
+                yield from pool.imap_unordered(run_initialized, batch)
 
 
 def evaluate(

@@ -55,15 +55,25 @@ def _connect(workers: int, address: str | None):
 
 
 def run_on_ray(
-    jobs: list[Job], init_args: WorkerArgs, workers: int, address: str | None = None
+    jobs: list[Job],
+    init_args: WorkerArgs,
+    workers: int,
+    address: str | None = None,
+    own_process: list[bool] | None = None,
 ) -> Iterator[dict[str, Any]]:
-    """The records of ``jobs`` as their Ray tasks finish (one CPU each); a task whose worker died is a
-    ``crashed`` record, like an episode that raised."""
+    """The records of ``jobs`` as their Ray tasks finish (one CPU each; a job whose ``own_process`` flag is
+    set in a worker process that runs nothing else); a task whose worker died is a ``crashed`` record, like
+    an episode that raised."""
     ray, connected = _connect(workers, address)
     try:
         remote = ray.remote(num_cpus=1, max_retries=0)(run_job)
+        alone = ray.remote(num_cpus=1, max_retries=0, max_calls=1)(run_job)
         args = ray.put(init_args)
-        submitted = {remote.remote(job, args): job for job in jobs}
+        own_process = own_process or [False] * len(jobs)
+        submitted = {
+            (alone if own else remote).remote(job, args): job
+            for job, own in zip(jobs, own_process, strict=True)
+        }
         pending = list(submitted)
         while pending:
             ready, pending = ray.wait(pending, num_returns=1)

@@ -12,7 +12,7 @@ from typing import Any
 from taskcond.application.baseline import IMAGE_IL, load_policy, run_policy_episode
 from taskcond.application.condition_sources import make_source, novel_primitive_source
 from taskcond.application.episode import run_episode
-from taskcond.application.plans import instruction_plan, llm_decomposer, plan_run
+from taskcond.application.plans import instruction_plan, instruction_scene, llm_decomposer, plan_run
 from taskcond.execution.executor import ConditionSource, SourceKind
 from taskcond.execution.failures import FailureKind
 from taskcond.execution.skills import SkillLibrary
@@ -162,6 +162,30 @@ def run_initialized(job: Job, observers: Sequence[EpisodeObserver] = ()) -> dict
             "crashed": True,
             "error": f"{type(exc).__name__}: {' '.join(str(exc).split())[:300]}",
         } | kept
+
+
+def needs_own_process(jobs: Sequence[Job], args: WorkerArgs) -> list[bool]:
+    """For each of ``jobs``, whether its episode must run in a fresh process of its own to be repeatable:
+    its scene (a suite task's, or the one its instruction's wording picks) is not
+    :attr:`~taskcond.sim.scene.SceneConfig.repeatable_in_process` (the cloth's scene)."""
+    from taskcond.instructions import load_instructions
+    from taskcond.sim.scene import SceneConfig, dual_arm_config
+    from taskcond.tasks.registry import UnknownTaskError, get_task
+
+    instructions = (
+        {} if args.instructions is None else {i.id: i for i in load_instructions(Path(args.instructions))}
+    )
+
+    def scene(job: Job) -> SceneConfig:
+        if job.task in instructions:
+            dual = instruction_scene(instructions[job.task].text_for(job.seed)) == "dual-arm"
+            return dual_arm_config() if dual else SceneConfig()
+        try:
+            return get_task(job.task).scene_config(None) or SceneConfig()
+        except UnknownTaskError:
+            return dual_arm_config() if instruction_scene(job.task) == "dual-arm" else SceneConfig()
+
+    return [not scene(job).repeatable_in_process for job in jobs]
 
 
 def unplanned(job: Job, instruction: Any, reason: str, planner: str, start: str) -> dict[str, Any]:

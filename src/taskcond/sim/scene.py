@@ -189,6 +189,15 @@ class SceneConfig:
     cloth_center: tuple[float, float] = (0.36, 0.26)
     """Nominal world xy (m) of the cloth's centre, between the two arms; perturbed by ``position_noise``."""
 
+    @property
+    def repeatable_in_process(self) -> bool:
+        """Whether an episode in this scene simulates alike wherever it runs in a process. Not with a
+        self-colliding cloth: Bullet's soft-body self-collision shuffles its repulsion contacts with one
+        random state per process (a static seed in ``btSoftBody.h``, advanced by each step of any soft body
+        and never reset), so such an episode is repeatable only as the first soft-body simulation of a
+        fresh process (:func:`taskcond.application.evaluate.run_jobs` gives it one)."""
+        return self.cloth is None or not self.cloth.self_collision
+
 
 DUAL_ARM_CABINET_SHIFT = 0.075
 """Metres the cabinet stands farther back (+x) in the dual-arm scene than in the kitchen. Laying the cloth's
