@@ -6,11 +6,19 @@ EXTRAS ?= all,dev
 
 .PHONY: install install-native demo test lint format bench clean
 
-$(VENV)/.installed: pyproject.toml
+$(BIN)/pip:
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/pip install --quiet --upgrade pip
-	$(BIN)/pip install --progress-bar off -e ".[$(EXTRAS)]"
+
+# The demo needs the embedded LLM and the PyBullet suite only (.[all]): a first `make demo` does not wait for
+# robosuite, Ray, JAX and Rerun (about 700 MB), which `make test` adds.
+$(VENV)/.demo: pyproject.toml | $(BIN)/pip
+	$(BIN)/pip install --progress-bar off -e ".[all]"
 	touch $@
+
+$(VENV)/.installed: pyproject.toml | $(BIN)/pip
+	$(BIN)/pip install --progress-bar off -e ".[$(EXTRAS)]"
+	touch $@ $(VENV)/.demo
 
 # The opt-in native runtime: llama-cpp-python compiles llama.cpp for this CPU. On an Intel CPU with AMX
 # (Sapphire Rapids and later) that native build uses AMX kernels that crash the first evaluation
@@ -33,7 +41,7 @@ install-native: install  ## also install llama-cpp-python, the native runtime (c
 
 install: $(VENV)/.installed  ## create .venv and install taskcond with everything the tests need
 
-demo: install  ## learn the skills once, then perform LHT1 with conditions from the embedded LLM, to a video
+demo: $(VENV)/.demo  ## learn the skills once, then perform LHT1 with conditions from the embedded LLM, to a video
 	$(BIN)/taskcond run LHT1 --method llm --seed 0 --video runs/demo-LHT1.mp4 --trace runs/demo-LHT1.json
 
 lint: install
