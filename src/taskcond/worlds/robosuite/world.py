@@ -26,7 +26,7 @@ from taskcond.execution.world import Observation, Touch
 from taskcond.primitives import get_primitive
 from taskcond.sim.perception import ObjectBox, _add_noise, spatial_relations
 from taskcond.sim.recording import VideoRecorder
-from taskcond.worlds.robosuite.scene import DOOR_CLOSED, DOOR_OPEN, RINGS, ROUND, RobosuiteScene
+from taskcond.worlds.robosuite.scene import CLOSING, DOOR_CLOSED, DOOR_OPEN, RINGS, ROUND, RobosuiteScene
 
 REACH = 0.95
 """Reach (m) of the Panda's end effector from its shoulder (as :data:`taskcond.worlds.kitchen.REACH`)."""
@@ -36,12 +36,15 @@ VIDEO_EVERY = 2
 """Record every n-th control step."""
 SWEEP_WITHIN = 0.05
 """Distance (m) up to which :meth:`RobosuiteWorld.sweep` measures the hand's clearance."""
+_ACROSS = np.cross([0.0, 0.0, 1.0], CLOSING)
 HAND_POINTS = np.array(
-    [[0.0, y, 0.0] for y in (-0.04, 0.0, 0.04)]
-    + [[x, y, -0.06] for x in (-0.03, 0.03) for y in (-0.1, 0.0, 0.1)]
+    [c * CLOSING for c in (-0.04, 0.0, 0.04)]
+    + [c * CLOSING + a * _ACROSS + [0.0, 0.0, -0.06] for c in (-0.1, 0.0, 0.1) for a in (-0.03, 0.03)]
 )
-"""Points (m) of the Panda hand in the end-effector site's frame (z from the hand towards the fingertips,
-y along the fingers' closing axis): the fingertips and the housing's corners."""
+"""Points (m) of the Panda hand in the end-effector site's frame (z from the hand towards the
+fingertips): the fingertips, 4 cm either side along the fingers' closing axis
+(:data:`~taskcond.worlds.robosuite.scene.CLOSING`), and the housing's corners, 10 cm along it and 3 cm
+across it, 6 cm above the fingertips."""
 
 
 class RobosuiteWorld:
