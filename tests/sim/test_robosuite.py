@@ -8,6 +8,7 @@ import json
 
 import numpy as np
 import pytest
+from scipy.spatial.transform import Rotation
 from typer.testing import CliRunner
 
 from taskcond.application.condition_sources import make_source
@@ -16,9 +17,9 @@ from taskcond.cli import app
 from taskcond.conditions import ContainerState, GripperState, Relation, SpatialRelation
 from taskcond.execution.skills import SkillLibrary, learn_skill
 from taskcond.worlds.robosuite.demos import record_demonstrations
-from taskcond.worlds.robosuite.scene import make_env, reset
-from taskcond.worlds.robosuite.tasks import TASKS, down, oracle
-from taskcond.worlds.robosuite.world import RobosuiteWorld
+from taskcond.worlds.robosuite.scene import CLOSING, make_env, reset
+from taskcond.worlds.robosuite.tasks import TASKS, across, closing_axis, down, oracle
+from taskcond.worlds.robosuite.world import HAND_POINTS, RobosuiteWorld
 
 pytestmark = pytest.mark.sim
 
@@ -91,6 +92,39 @@ def test_door_opened_by_its_oracle_then_by_the_skill_learned_from_it() -> None:
     result = run_episode(TASKS["Door"], "env", 1000, library, make_source("env", library), noise=0.005)
     assert result.success, result.reason
     assert "door open" in result.final_predicates
+
+
+def test_fingers_close_along_the_closing_axis_across_the_cereals_narrow_side() -> None:
+    """The hand's closing axis is MuJoCo's (the pads lie along it, :data:`HAND_POINTS`' fingertips at
+    them), and a grasp turns it across the cereal's 3 cm side, which lies along the box geom's x but the
+    body's y (the object's own axes are its geom's, in which its box's sides are read)."""
+    env = make_env("PickPlaceCereal")
+    try:
+        scene = reset(env, 1)
+        position, quat = scene.ee_pose()
+        site = Rotation.from_quat(quat)
+        pads = [
+            scene.sim.data.geom_xpos[scene.model.geom_name2id(name)]
+            for group in ("left_fingerpad", "right_fingerpad")
+            for name in scene.gripper_model.important_geoms[group]
+        ]
+        gap = site.inv().apply(np.array(pads[-1]) - np.array(pads[0]))
+        assert abs(gap @ CLOSING) == pytest.approx(np.linalg.norm(gap), abs=1e-3)
+        tips = site.inv().apply(np.array(pads) - position)
+        assert (
+            np.abs(np.sort(tips @ CLOSING)[[0, -1]] - HAND_POINTS[[1, 3]] @ CLOSING).max() < 0.005
+        )  # the pads
+        axes, half = scene.axes("cereal"), scene.half_size("cereal")
+        lower, upper = scene.box("cereal")
+        assert np.allclose(np.abs(axes) @ half, (upper - lower) / 2, atol=1e-4)  # its sides, in its frame
+        body_x = Rotation.from_quat(scene.pose("cereal")[1]).apply([1.0, 0.0, 0.0])
+        assert abs(axes[:, 0] @ body_x) < 0.1  # the geom's frame is not the body's
+        narrow = axes[:, int(np.argmin(half[:2]))]
+        assert abs(closing_axis(across(scene, "cereal", down(scene))) @ narrow) == pytest.approx(
+            1.0, abs=1e-6
+        )
+    finally:
+        env.close()
 
 
 def test_square_nut_perceived_by_its_ring() -> None:

@@ -28,7 +28,7 @@ from taskcond.sim.recording import VideoRecorder
 from taskcond.worlds.robosuite import versions
 from taskcond.worlds.robosuite.scene import make_env, reset
 from taskcond.worlds.robosuite.tasks import RobosuiteTask
-from taskcond.worlds.robosuite.world import RobosuiteWorld
+from taskcond.worlds.robosuite.world import HAND, RobosuiteWorld
 
 WORLD = "robosuite"
 STARTS = ("task", "random")
@@ -93,7 +93,7 @@ def run_episode(
             on_plan(fixed, goal)
         run_steps = steps if fixed is None else fixed.steps
         if fixed is None or fixed.impossible is None:
-            result = Executor(world, library, method, source, config, on_event).run(run_steps)
+            result = Executor(world, library, method, source, config, on_event, hand=HAND).run(run_steps)
         final = final_predicates(world)
         missing = [str(q) for q in goal if str(q) not in final]
         if instruction:

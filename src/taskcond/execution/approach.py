@@ -537,7 +537,8 @@ class Approach:
         :data:`SWEEP_TOLERANCE` into it). Then the reachable side that passes clear, then reaches least
         into a box, then keeps the largest gap, wins (the demonstrated one on a tie). A hand housing
         against a neighbour cannot be repaired by Alg. 2's goal shifts, which move the fingers off the wall
-        they are to hold."""
+        they are to hold. A box round the whole target (:func:`_encloses`: a bin it stands in) is no
+        neighbour: every side's footprint lies in it; its walls are :meth:`World.sweep`'s."""
         skill, target_name, target, obs = g.skill, g.target_name, g.target, g.obs
         far, descent = g.far, g.descent
         arms = self.world.arms
@@ -545,6 +546,7 @@ class Approach:
             (lo, hi)
             for name, (lo, hi) in obs.boxes.items()
             if name not in (target_name, *self.world.ground, *arms)
+            and not _encloses((lo, hi), obs.boxes.get(target_name))
         ]
         opened = []
         for seg in skill.segments:
@@ -584,7 +586,7 @@ class Approach:
         def clearance(points: np.ndarray, quats: np.ndarray) -> tuple[bool, float, float]:
             """Of a way (:func:`way`): (the arm passes clear, − deepest reach of a footprint sample into a
             box, least gap): larger is clearer."""
-            axes = Rotation.from_quat(quats).apply([0.0, 1.0, 0.0])
+            axes = Rotation.from_quat(quats).apply(self.hand.closing)
             flat = axes[:, :2] / np.maximum(np.linalg.norm(axes[:, :2], axis=1, keepdims=True), 1e-9)
             across = np.column_stack([-flat[:, 1], flat[:, 0]])
             feet = points[:, None, None, :2] + u * flat[:, None, None, :] + v * across[:, None, None, :]
@@ -711,6 +713,16 @@ def _tall(name: str, obs: Observation) -> bool:
     lo, hi = obs.boxes[name]
     size = hi - lo
     return bool(size[2] >= min(size[0], size[1]))
+
+
+def _encloses(box: tuple[np.ndarray, np.ndarray], inner: tuple[np.ndarray, np.ndarray] | None) -> bool:
+    """Whether ``box`` (lower, upper (3,) m) holds all of ``inner`` (a box, or None) within its sides and
+    above its bottom: a container the object stands in."""
+    if inner is None:
+        return False
+    return bool(
+        np.all(box[0][:2] <= inner[0][:2]) and np.all(inner[1][:2] <= box[1][:2]) and box[0][2] <= inner[0][2]
+    )
 
 
 def _descends(skill: Skill) -> bool:

@@ -58,10 +58,14 @@ class Hand:
         opening: widest gap (m) between the open fingers: a grasp of an object whose perceived box is
             narrower than this both ways may close across either side
             (:meth:`~taskcond.execution.approach.Approach._turn`).
+        closing: the axis (3,) the fingers close along, in the end-effector frame: the long side of the
+            hand's footprint (:attr:`ExecutionConfig.hand`); the kitchen's Panda closes along its y,
+            robosuite's along its x.
     """
 
     housing: float
     opening: float
+    closing: tuple[float, float, float] = (0.0, 1.0, 0.0)
 
 
 PANDA_HAND = Hand(housing=0.045, opening=0.08)

@@ -69,6 +69,12 @@ body origin) after which the ring and the walls a hand holds it by look the same
 held across its ±y walls, turned by half a turn (its handle on the +x wall then points the other way,
 which neither the hold nor the peg minds). Their centre is the ring's (:meth:`RobosuiteScene.centre`),
 their heading's period this (:meth:`RobosuiteScene.yaw_period`)."""
+CLOSING = np.array([1.0, 0.0, 0.0])
+"""The axis (3,) along which robosuite's Panda closes its fingers, in the end-effector site's frame (z from
+the hand towards the fingertips): the pads sit at ±4.2 cm along the site's x, and the hand's housing
+(0.21 × 0.06 m from above) is long along it too (measured from MuJoCo's geoms). The one definition every
+hand pose here is built from (:mod:`taskcond.worlds.robosuite.tasks`,
+:data:`taskcond.worlds.robosuite.world.HAND_POINTS`)."""
 FAR = 5.0
 """A free object farther than this (m) from the origin is not in the scene: robosuite parks the objects a
 single-object PickPlace or NutAssembly does not use at (10, 10, 10)."""
@@ -329,7 +335,7 @@ class RobosuiteScene:
         cube-like one (:data:`CUBE_LIKE`) every one of its axes (turned onto another face, it stands)."""
         out = []
         for name in self.free:
-            axes = Rotation.from_quat(self.pose(name)[1]).as_matrix()  # columns: the object's axes
+            axes = self.axes(name)  # columns: the object's own axes
             up = np.abs(axes[2]) if self._cube_like(name) else axes[2, 2:]
             if up.max() < LYING:
                 out.append(name)
@@ -341,9 +347,15 @@ class RobosuiteScene:
         return bool(half.max() < CUBE_LIKE * half.min())
 
     def half_size(self, name: str) -> np.ndarray:
-        """Half the edges (3,) m of a free object's own box along its own axes (the largest of MuJoCo's
-        local ``geom_aabb`` of its geoms, which robosuite's objects align with their body)."""
+        """Half the edges (3,) m of a free object's own box along its own axes (:meth:`axes`): the largest
+        of MuJoCo's local ``geom_aabb`` of its geoms."""
         return np.max([self.model.geom_aabb[g, 3:] for g in self.entities[name].geoms], axis=0)
+
+    def axes(self, name: str) -> np.ndarray:
+        """The axes of a free object's own box (:meth:`half_size`), world frame, as the columns of a (3, 3)
+        rotation: its first geom's frame, which is not always its body's (the cereal's box geom is turned
+        90° about the body's z: its 3 cm side lies along the body's y)."""
+        return np.array(self.sim.data.geom_xmat[self.entities[name].geoms[0]]).reshape(3, 3)
 
     def yaw_period(self, name: str) -> float:
         """The turn (rad) about its vertical after which a free object, or the door, looks the same: the

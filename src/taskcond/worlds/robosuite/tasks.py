@@ -22,7 +22,7 @@ from scipy.spatial.transform import Rotation, Slerp
 
 from taskcond.conditions import ContainerState, Relation
 from taskcond.primitives import parse_task
-from taskcond.worlds.robosuite.scene import RINGS, ROUND, RobosuiteScene
+from taskcond.worlds.robosuite.scene import CLOSING, RINGS, ROUND, RobosuiteScene
 
 Command = tuple[np.ndarray, np.ndarray, float]
 """One control step's end-effector command: position (3,) m, orientation (4,) xyzw, gripper 0–1."""
@@ -175,34 +175,46 @@ def get_task(task_id: str) -> RobosuiteTask:
 
 
 # ------------------------------------------------------------------------------------------- oracles
+def hand(closing: np.ndarray, pointing: np.ndarray) -> np.ndarray:
+    """The hand pointing along ``pointing`` (3,) (the end-effector site's z) with its fingers closing along
+    ``closing`` (3,), perpendicular to it (the site's :data:`~taskcond.worlds.robosuite.scene.CLOSING`
+    axis), xyzw (4,)."""
+    z = pointing / np.linalg.norm(pointing)
+    c = closing / np.linalg.norm(closing)
+    site_z = np.array([0.0, 0.0, 1.0])
+    world = np.column_stack([c, np.cross(z, c), z])
+    site = np.column_stack([CLOSING, np.cross(site_z, CLOSING), site_z])
+    return Rotation.from_matrix(world @ site.T).as_quat()
+
+
+def closing_axis(quat: np.ndarray) -> np.ndarray:
+    """The world axis (3,) along which the hand at orientation ``quat`` (4,) xyzw closes its fingers."""
+    return Rotation.from_quat(quat).apply(CLOSING)
+
+
+DOWN = np.array([0.0, 0.0, -1.0])
+"""World −z: where a hand pointing down points."""
+
+
 def down(scene: RobosuiteScene) -> np.ndarray:
-    """The hand pointing straight down (its z axis world −z), its fingers' closing axis (its y) the
-    horizontal part of the current pose's: the current pose without its tilt, xyzw (4,)."""
-    start = Rotation.from_quat(scene.ee_pose()[1]).as_matrix()
-    return _pointing_down(np.array([start[0, 1], start[1, 1], 0.0]))
-
-
-def _pointing_down(closing: np.ndarray) -> np.ndarray:
-    """The hand pointing straight down with its fingers' closing axis along the horizontal ``closing``
-    (3,), xyzw (4,)."""
-    y = closing / np.linalg.norm(closing)
-    z = np.array([0.0, 0.0, -1.0])
-    return Rotation.from_matrix(np.column_stack([np.cross(y, z), y, z])).as_quat()
+    """The hand pointing straight down, its fingers' closing axis (:func:`closing_axis`) the horizontal
+    part of the current pose's: the current pose without its tilt, xyzw (4,)."""
+    closing = closing_axis(scene.ee_pose()[1])
+    return hand(np.array([closing[0], closing[1], 0.0]), DOWN)
 
 
 def across(scene: RobosuiteScene, obj: str, quat: np.ndarray) -> np.ndarray:
     """The hand pointing down (``quat`` (4,) xyzw, pointing down) turned about the vertical by the least
-    turn that makes its fingers close along the shorter of the object's own horizontal axes
-    (:meth:`~RobosuiteScene.half_size`) for an elongated section (:meth:`~RobosuiteScene.elongated`: the
-    cereal box); ``quat`` for a round or square one. xyzw (4,)."""
+    turn that makes its fingers close (:func:`closing_axis`) along the shorter of the object's own
+    horizontal axes (:meth:`~RobosuiteScene.axes`, :meth:`~RobosuiteScene.half_size`) for an elongated
+    section (:meth:`~RobosuiteScene.elongated`: the cereal box); ``quat`` for a round or square one. xyzw
+    (4,)."""
     if obj in ROUND or not scene.elongated(obj):
         return quat
-    axes = Rotation.from_quat(scene.pose(obj)[1]).as_matrix()
-    half = scene.half_size(obj)
+    axes, half = scene.axes(obj), scene.half_size(obj)
     narrow = axes[:, 0] if half[0] <= half[1] else axes[:, 1]
     closing = np.array([narrow[0], narrow[1], 0.0])
-    y = Rotation.from_quat(quat).as_matrix()[:, 1]
-    return _pointing_down(closing if closing @ y >= 0.0 else -closing)
+    return hand(closing if closing @ closing_axis(quat) >= 0.0 else -closing, DOWN)
 
 
 def _line(start: np.ndarray, goal: np.ndarray, speed: float = SPEED, dt: float = 0.05) -> list[np.ndarray]:
@@ -259,7 +271,7 @@ def _turned(quat: np.ndarray, angle: float) -> np.ndarray:
 def grasp_ring(scene: RobosuiteScene, obj: str, quat: np.ndarray) -> Iterator[Command]:
     """Grasp a ring (:data:`~taskcond.worlds.robosuite.scene.RINGS`, the square nut) at :data:`RING_GRIP`,
     of the points its symmetry makes of it the one nearest the hand, the hand pointing down with its
-    fingers closing towards the ring's centre (along the site's x axis) in whichever of its two ways is
+    fingers closing towards the ring's centre (:func:`closing_axis`) in whichever of its two ways is
     nearer ``quat`` (4,) xyzw: turned on its way to :data:`ABOVE` over the grip, still there, down at
     :data:`FINAL_SPEED` to :data:`RING_DEPTH` below the top, still there, close, lift :data:`LIFT`."""
     here, _ = scene.ee_pose()
@@ -268,20 +280,17 @@ def grasp_ring(scene: RobosuiteScene, obj: str, quat: np.ndarray) -> Iterator[Co
     points = [centre + Rotation.from_rotvec([0.0, 0.0, a]).apply(RING_GRIP) for a in angles]
     k = int(np.argmin([np.linalg.norm((p - here)[:2]) for p in points]))
     normal = Rotation.from_rotvec([0.0, 0.0, angles[k]]).apply(RING_GRIP / np.linalg.norm(RING_GRIP))
-    if normal @ Rotation.from_quat(quat).as_matrix()[:, 0] < 0.0:
-        normal = -normal
-    down_z = np.array([0.0, 0.0, -1.0])
-    hand = Rotation.from_matrix(np.column_stack([normal, np.cross(down_z, normal), down_z])).as_quat()
+    held = hand(normal if normal @ closing_axis(quat) >= 0.0 else -normal, DOWN)
     grip = np.array([*points[k][:2], scene.box(obj)[1][2] - RING_DEPTH])
     above = grip + np.array([0.0, 0.0, ABOVE])
     high = np.array([*here[:2], max(here[2], above[2])])
     yield from _path([(high, 0.0)], here, quat)
-    yield from _turning(high, above, quat, hand, 0.0)
+    yield from _turning(high, above, quat, held, 0.0)
     for position in _line(above, grip, FINAL_SPEED):
-        yield position, hand, 0.0
+        yield position, held, 0.0
     for _ in range(HOLD):  # a standstill at the grip: the learned grasp's approach ends there
-        yield grip, hand, 0.0
-    yield from _path([(grip, 0.0), (grip, 1.0), (grip + np.array([0.0, 0.0, LIFT]), 1.0)], grip, hand)
+        yield grip, held, 0.0
+    yield from _path([(grip, 0.0), (grip, 1.0), (grip + np.array([0.0, 0.0, LIFT]), 1.0)], grip, held)
 
 
 def _turning(
@@ -347,11 +356,8 @@ def carry(scene: RobosuiteScene, obj: str, place: str, quat: np.ndarray, inside:
 
 def level(outward: np.ndarray) -> np.ndarray:
     """The hand level, pointing horizontally against ``outward`` (3,) (at a door's panel) with its fingers
-    closing vertically (they close along the end-effector site's x axis, measured), xyzw (4,)."""
-    z = -np.array([outward[0], outward[1], 0.0])
-    z /= np.linalg.norm(z)
-    x = np.array([0.0, 0.0, -1.0])
-    return Rotation.from_matrix(np.column_stack([x, np.cross(z, x), z])).as_quat()
+    closing vertically (:func:`closing_axis` world −z), xyzw (4,)."""
+    return hand(DOWN, -np.array([outward[0], outward[1], 0.0]))
 
 
 def _arc(
@@ -377,17 +383,17 @@ def open_door(scene: RobosuiteScene, quat: np.ndarray) -> Iterator[Command]:
     if door is None:
         raise ValueError("no door in this scene")
     here, _ = scene.ee_pose()
-    hand = level(door.outward)
+    level_hand = level(door.outward)
     grip = door.latch + LEVER_GRIP * door.lever
     lift = 1.0 if np.cross(door.latch_axis, door.lever)[2] > 0 else -1.0
     front = grip + ABOVE * door.outward
-    yield from _path([(front, 0.0)], here, hand)
+    yield from _path([(front, 0.0)], here, level_hand)
     for position in _line(front, grip, FINAL_SPEED):
-        yield position, hand, 0.0
+        yield position, level_hand, 0.0
     for gripper in (0.0, 1.0):
         for _ in range(HOLD):
-            yield grip, hand, gripper
-    steps = _arc(grip, hand, door.latch, door.latch_axis, lift * LEVER_TURN, 1.0)
+            yield grip, level_hand, gripper
+    steps = _arc(grip, level_hand, door.latch, door.latch_axis, lift * LEVER_TURN, 1.0)
     pulled, turned = steps[-1][0], steps[-1][1]
     steps += _arc(pulled, turned, door.hinge, door.hinge_axis, DOOR_PULL, 1.0)
     swing = Rotation.from_rotvec(door.hinge_axis * DOOR_PULL)
@@ -437,6 +443,7 @@ __all__ = [
     "Command",
     "RobosuiteTask",
     "UnknownRobosuiteTaskError",
+    "closing_axis",
     "down",
     "get_task",
     "oracle",

@@ -22,11 +22,12 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from taskcond.conditions import ContainerState, GripperState, Predicate, Relation, SpatialRelation
+from taskcond.execution.config import PANDA_HAND, Hand
 from taskcond.execution.world import Observation, Touch
 from taskcond.primitives import get_primitive
 from taskcond.sim.perception import ObjectBox, _add_noise, spatial_relations
 from taskcond.sim.recording import VideoRecorder
-from taskcond.worlds.robosuite.scene import DOOR_CLOSED, DOOR_OPEN, RINGS, ROUND, RobosuiteScene
+from taskcond.worlds.robosuite.scene import CLOSING, DOOR_CLOSED, DOOR_OPEN, RINGS, ROUND, RobosuiteScene
 
 REACH = 0.95
 """Reach (m) of the Panda's end effector from its shoulder (as :data:`taskcond.worlds.kitchen.REACH`)."""
@@ -36,12 +37,21 @@ VIDEO_EVERY = 2
 """Record every n-th control step."""
 SWEEP_WITHIN = 0.05
 """Distance (m) up to which :meth:`RobosuiteWorld.sweep` measures the hand's clearance."""
+_ACROSS = np.cross([0.0, 0.0, 1.0], CLOSING)
 HAND_POINTS = np.array(
-    [[0.0, y, 0.0] for y in (-0.04, 0.0, 0.04)]
-    + [[x, y, -0.06] for x in (-0.03, 0.03) for y in (-0.1, 0.0, 0.1)]
+    [c * CLOSING + [0.0, 0.0, -0.02] for c in (-0.068, -0.04, 0.0, 0.04, 0.068)]
+    + [
+        c * CLOSING + a * _ACROSS + [0.0, 0.0, -0.03]
+        for c in (-0.1, -0.05, 0.0, 0.05, 0.1)
+        for a in (-0.03, 0.03)
+    ]
 )
-"""Points (m) of the Panda hand in the end-effector site's frame (z from the hand towards the fingertips,
-y along the fingers' closing axis): the fingertips and the housing's corners."""
+"""Points (m) of the Panda hand in the end-effector site's frame (z from the hand towards the
+fingertips), measured from its collision geoms: the open fingers, out to 6.8 cm either side along their
+closing axis (:data:`~taskcond.worlds.robosuite.scene.CLOSING`), and the bottom of the housing, which is
+0.21 m long along that axis and 6 cm wide across it, 2.6 cm above the site."""
+HAND = Hand(housing=PANDA_HAND.housing, opening=PANDA_HAND.opening, closing=tuple(CLOSING))
+"""robosuite's Panda hand for the executor: the kitchen's, closing along the site's x."""
 
 
 class RobosuiteWorld:
@@ -159,10 +169,21 @@ class RobosuiteWorld:
 
     def sweep(self, positions: np.ndarray, orientations: np.ndarray, ignore: tuple[str, ...]) -> float:
         """Least distance (m) between the hand's points (:data:`HAND_POINTS`) at each pose and the true
-        boxes of everything but ``ignore`` and the ground, at most :data:`SWEEP_WITHIN`; an approximation
-        of the kitchen's arm clearance by the hand alone (what passes near a grasp)."""
+        boxes of everything but ``ignore`` and the ground, each of its collision geoms' own (a bin's walls
+        and floor, not the box round the whole bin, inside which a grasp in the bin always is), at most
+        :data:`SWEEP_WITHIN`; an approximation of the kitchen's arm clearance by the hand alone (what
+        passes near a grasp)."""
         skip = {*ignore, *self.ground, "target bin"}
-        boxes = [self.scene.box(n) for n in self.scene.objects if n not in skip]
+        boxes = [
+            box
+            for name in self.scene.objects
+            if name not in skip
+            for box in (
+                [self.scene.geom_box(g) for g in self.scene.entities[name].geoms]
+                if self.scene.entities[name].geoms
+                else [self.scene.box(name)]
+            )
+        ]
         if not boxes:
             return SWEEP_WITHIN
         lower = np.array([b[0] for b in boxes])
@@ -193,4 +214,4 @@ def _hand_points(positions: np.ndarray, orientations: np.ndarray) -> np.ndarray:
     return (positions[:, None, :] + np.einsum("mij,pj->mpi", rotations, HAND_POINTS)).reshape(-1, 3)
 
 
-__all__ = ["REACH", "RobosuiteWorld"]
+__all__ = ["HAND", "REACH", "RobosuiteWorld"]
