@@ -297,3 +297,22 @@ def test_the_cloth_episodes_of_an_evaluation_get_a_process_each(tmp_path):
     ]
     flags = needs_own_process(jobs, WorkerArgs("skills", None, 0.0, instructions=str(path)))
     assert flags == [True, True, True, False, False, True, False]
+
+
+def test_a_cloth_episode_of_an_evaluation_replays_and_warns_in_a_used_process(tmp_path):
+    """The evaluation runs the cloth's episode in a process of its own (workers 1 included); its replay in
+    a process that has simulated a cloth before reproduces this insensitive episode but says that such a
+    replay is not to be trusted."""
+    from taskcond.application.demonstrations import learn_library
+    from taskcond.application.evaluate import evaluate, execution_config
+    from taskcond.application.replay import find_episode, replay
+    from taskcond.results import Job, ResultsFile
+
+    library_dir, out = tmp_path / "skills", tmp_path / "eval.jsonl"
+    learn_library(library_dir, ["grasp-cloth"])
+    results = ResultsFile(out, execution_config(library_dir, 0.005))
+    (record,) = evaluate([Job("grasp-cloth", "env", 1000)], results, library_dir, noise=0.005)
+    assert record["success"], record
+    done = replay(find_episode(out, "grasp-cloth:env:1000"), library_dir)
+    assert done.reproduced, done.differences
+    assert any("fresh process" in w for w in done.warnings)

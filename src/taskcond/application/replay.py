@@ -19,9 +19,10 @@ from typing import Any
 
 from taskcond.application.baseline import IMAGE_IL
 from taskcond.application.library import default_library_dir
-from taskcond.application.workers import WorkerArgs, run_job
+from taskcond.application.workers import WorkerArgs, needs_own_process, run_job
 from taskcond.execution.config import ExecutionConfig
 from taskcond.results import HEADER_KEY, Job, code_version, directory_digest, file_digest
+from taskcond.sim.cloth import self_colliding_loaded
 from taskcond.viz.episode import EpisodeObserver
 
 COMPARED = (
@@ -183,7 +184,13 @@ def replay(
         instructions=None if path is None else str(path),
         novel_primitive=bool(config.get("novel_primitive", False)),
     )
-    new = run_job(Job(record["task"], record["method"], record["seed"]), args, observers)
+    job = Job(record["task"], record["method"], record["seed"])
+    if self_colliding_loaded() and needs_own_process([job], args)[0]:
+        warnings.append(
+            "this process has simulated the cloth before: a cloth episode reproduces only in a fresh "
+            "process (each `taskcond replay` is one)"
+        )
+    new = run_job(job, args, observers)
     if new.get("crashed"):
         return Replay(stored, new, [f"the replay crashed: {new['error']}"], warnings)
     differences = [

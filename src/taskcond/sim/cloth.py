@@ -140,11 +140,22 @@ def cloth_obj_path(spec: ClothSpec) -> str:
     return str(path)
 
 
+_SELF_COLLIDING_LOADED = [0]
+
+
+def self_colliding_loaded() -> int:
+    """How many self-colliding cloths this process has loaded (:func:`load_cloth`): after the first, a
+    cloth's simulation depends on what the earlier ones did
+    (:attr:`~taskcond.sim.scene.SceneConfig.repeatable_in_process`)."""
+    return _SELF_COLLIDING_LOADED[0]
+
+
 def load_cloth(client: int, spec: ClothSpec, center: tuple[float, float, float], yaw: float = 0.0) -> int:
     """Load the cloth as a soft body, flat, centred at ``center`` (3,) m, turned ``yaw`` rad about z.
 
     The client must be a deformable world (see the module docstring). Returns the body id.
     """
+    _SELF_COLLIDING_LOADED[0] += int(spec.self_collision)
     body = p.loadSoftBody(
         cloth_obj_path(spec),
         basePosition=list(center),
