@@ -57,7 +57,7 @@ def test_answers_and_results_name_the_runtime(tmp_path, monkeypatch):
     assert labels["llama-cpp-python"].startswith("embedded:qwen2.5-coder-1.5b@llama-cpp-python")
     monkeypatch.setenv("TASKCOND_EMBEDDED_RUNTIME", "llama")
     with pytest.raises(
-        LLMError, match="unknown embedded runtime 'llama'; valid: xllamacpp, llama-cpp-python"
+        LLMError, match="unknown embedded runtime 'llama'; valid: llama-cpp-python, xllamacpp"
     ):
         llm_fields("embedded")
 
