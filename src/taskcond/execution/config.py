@@ -61,11 +61,19 @@ class Hand:
         closing: the axis (3,) the fingers close along, in the end-effector frame: the long side of the
             hand's footprint (:attr:`ExecutionConfig.hand`); the kitchen's Panda closes along its y,
             robosuite's along its x.
+        round_carry_holds: a carry of a round object keeps the hand's heading from where the carry starts
+            (:attr:`~taskcond.execution.approach.Aim.hold`) instead of turning it back to the demonstrated
+            one: the object is held alike from every side, and a grasp turned a quarter turn to a free
+            side (:meth:`~taskcond.execution.approach.Approach._turn`) otherwise turns back by a quarter
+            turn on the way, which either way is the nearer (the gripper's half-turn twin): robosuite's
+            Panda turned its wrist the other way, its last joint met its limit (2.90 rad) and the arm
+            lost the pose (PickPlace seed 1001). False keeps the kitchen's behaviour.
     """
 
     housing: float
     opening: float
     closing: tuple[float, float, float] = (0.0, 1.0, 0.0)
+    round_carry_holds: bool = False
 
 
 PANDA_HAND = Hand(housing=0.045, opening=0.08)

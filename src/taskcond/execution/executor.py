@@ -349,7 +349,9 @@ class Executor(Approach):
         if aim.approach is not None:
             first = aim.skill.segments[0]
             here_q = self.world.ee_pose()[1]
-            if parse_task(task).primitive.grasps:  # the hand pointing down as it will grasp
+            if aim.hold:  # a round object carried: the hand keeps its heading
+                orientation = here_q
+            elif parse_task(task).primitive.grasps:  # the hand pointing down as it will grasp
                 orientation = first.orientation(1.0, here_q, aim.turn)
             else:  # as the demonstration started: an open's hand turns to the handle on the way
                 start = Rotation.from_quat(first.orientations[0, :4])
@@ -399,7 +401,7 @@ class Executor(Approach):
         rollout = self._gen_dmp(seg, start, goal, aim.descent and seg is aim.skill.segments[0])
         self._tell(rollout, goal, monitor, seg.gripper >= 0.5)
         n = max(1, math.ceil(rollout.tau / self.world.dt - 1e-9))
-        orientations = seg.orientation(np.arange(n + 1) / n, start_q, aim.turn)
+        orientations = seg.orientation(np.arange(n + 1) / n, start_q, aim.turn, aim.hold)
         k = made = 0
         while k < n:
             position, _ = rollout.step(self.world.dt)
