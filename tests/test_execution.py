@@ -123,6 +123,8 @@ def test_approach_orientation_turns_from_the_start_to_the_demonstrated_one() -> 
     assert abs(approach.orientation(1.0, start) @ demo) == pytest.approx(1.0)
     middle = approach.orientation(0.5, start)
     assert abs(middle @ start) < 0.999 and abs(middle @ demo) < 0.999
+    # held (a round object carried, Hand.round_carry_holds): the hand keeps the start's turn throughout
+    assert abs(approach.orientation(1.0, start, hold=True) @ start) == pytest.approx(1.0)
 
 
 def _two_arm_demo() -> Demonstration:
