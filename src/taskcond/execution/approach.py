@@ -323,10 +323,9 @@ class Approach:
         way = CarriedWay(approach, None, descent)
         if carry and approach is not None and target is not None:
             way = self._carried_way(task, skill, target + aside, approach, obs, here)
-        aimed = None if target is None else target + aside
-        placed = (task, skill, target_name, aimed, turn, aside, way.approach, way.over)
+        placed = (task, skill, target_name, None if target is None else target + aside, turn, aside)
         hold = carry and self.hand.round_carry_holds and parsed.objects[0] in obs.round
-        return Aim(*placed, scale, choice.reason, way.descent, hold)
+        return Aim(*placed, way.approach, way.over, scale, choice.reason, way.descent, hold)
 
     def _carried_way(
         self,
