@@ -34,7 +34,7 @@ from taskcond.execution.approach import (
     heading_turn,
 )
 from taskcond.execution.collisions import CollisionMonitor, Landing, allowed_for_arms, landings, riders
-from taskcond.execution.executor import _part_way
+from taskcond.execution.executor import TargetTrack, _part_way
 from taskcond.execution.skills import (
     HALF_TURN,
     Demonstration,
@@ -123,6 +123,8 @@ def test_approach_orientation_turns_from_the_start_to_the_demonstrated_one() -> 
     assert abs(approach.orientation(1.0, start) @ demo) == pytest.approx(1.0)
     middle = approach.orientation(0.5, start)
     assert abs(middle @ start) < 0.999 and abs(middle @ demo) < 0.999
+    # held (a round object carried, Hand.round_carry_holds): the hand keeps the start's turn throughout
+    assert abs(approach.orientation(1.0, start, hold=True) @ start) == pytest.approx(1.0)
 
 
 def _two_arm_demo() -> Demonstration:
@@ -532,3 +534,10 @@ def test_a_place_in_front_moved_clear_of_a_neighbour_stays_in_front() -> None:
     assert not _keeps_place(Relation.IN_FRONT_OF, middle, np.array([-0.12, 0.0]), box, out)  # too far
     assert not _keeps_place(Relation.ABOVE, middle, np.zeros(2), box, out)  # not over the box
     assert _keeps_place(Relation.ABOVE, np.array([0.6, -0.1]), np.array([0.04, 0.04]), box, out)
+
+
+def test_a_tracked_target_is_the_mean_of_its_perceived_centres() -> None:
+    track = TargetTrack("nut", np.array([0.1, 0.0, 0.8]))
+    changes = [track.add(np.array(c)) for c in ([0.3, 0.0, 0.8], [0.2, 0.3, 0.8])]
+    assert_allclose(track.mean, [0.2, 0.1, 0.8])
+    assert_allclose(sum(changes), track.mean - [0.1, 0.0, 0.8])

@@ -31,6 +31,9 @@ from taskcond.worlds.robosuite.tasks import RobosuiteTask
 from taskcond.worlds.robosuite.world import HAND, RobosuiteWorld
 
 WORLD = "robosuite"
+EXECUTION = ExecutionConfig(track_target=True)
+"""The executor's constants in robosuite: the kitchen's, and a target-anchored piece's goal follows the
+mean of the target's perceived centres (:attr:`~taskcond.execution.config.ExecutionConfig.track_target`)."""
 STARTS = ("task", "random")
 """Start states: in robosuite every task's own start is drawn by robosuite's placement initializer (its
 default initial-state randomization), so ``task`` and ``random`` are the same draw for a seed."""
@@ -93,7 +96,9 @@ def run_episode(
             on_plan(fixed, goal)
         run_steps = steps if fixed is None else fixed.steps
         if fixed is None or fixed.impossible is None:
-            result = Executor(world, library, method, source, config, on_event, hand=HAND).run(run_steps)
+            result = Executor(world, library, method, source, config or EXECUTION, on_event, hand=HAND).run(
+                run_steps
+            )
         final = final_predicates(world)
         missing = [str(q) for q in goal if str(q) not in final]
         if instruction:
@@ -163,7 +168,7 @@ def run_config(
         **llm_fields(llm),
         noise=noise,
         skills=directory_digest(library_dir) if library_dir.exists() else None,
-        execution=asdict(ExecutionConfig()),
+        execution=asdict(EXECUTION),
         planner=planner,
         start=start,
         world=f"{WORLD} {installed['robosuite']}, mujoco {installed['mujoco']}",
@@ -224,4 +229,4 @@ def evaluate(
     return [r for r in results.results() if Job.key_of(r) in wanted]
 
 
-__all__ = ["STARTS", "WORLD", "evaluate", "final_predicates", "run_config", "run_episode"]
+__all__ = ["EXECUTION", "STARTS", "WORLD", "evaluate", "final_predicates", "run_config", "run_episode"]

@@ -96,6 +96,9 @@ class Aim:
             straight down onto it (its horizontal forcing term off, :func:`_conditioned`), so that no
             sideways way of the demonstration sweeps the object or a neighbour; False replays the
             demonstrated way.
+        hold: the hand keeps its heading through the skill (:meth:`Segment.orientation
+            <taskcond.execution.skills.Segment.orientation>`'s ``hold``; the transit too): a carry of a
+            round object by a hand with :attr:`~taskcond.execution.config.Hand.round_carry_holds`.
     """
 
     task: str
@@ -109,6 +112,7 @@ class Aim:
     scale: np.ndarray = dataclasses.field(default_factory=lambda: np.ones(3))
     choice: str = ""
     descent: bool = False
+    hold: bool = False
 
     @property
     def arms(self) -> int:
@@ -319,9 +323,9 @@ class Approach:
         way = CarriedWay(approach, None, descent)
         if carry and approach is not None and target is not None:
             way = self._carried_way(task, skill, target + aside, approach, obs, here)
-        aimed = None if target is None else target + aside
-        placed = (task, skill, target_name, aimed, turn, aside, way.approach, way.over)
-        return Aim(*placed, scale, choice.reason, way.descent)
+        placed = (task, skill, target_name, None if target is None else target + aside, turn, aside)
+        hold = carry and self.hand.round_carry_holds and parsed.objects[0] in obs.round
+        return Aim(*placed, way.approach, way.over, scale, choice.reason, way.descent, hold)
 
     def _carried_way(
         self,

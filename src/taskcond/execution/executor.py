@@ -113,6 +113,29 @@ class ConditionSource(Protocol):
         ...
 
 
+@dataclass
+class TargetTrack:
+    """The mean of a target's perceived centres since its primitive was aimed
+    (:attr:`ExecutionConfig.track_target`).
+
+    Attributes:
+        name: the target object.
+        mean: (3,) m, world frame: the mean centre so far.
+        count: observations in the mean.
+    """
+
+    name: str
+    mean: np.ndarray
+    count: int = 1
+
+    def add(self, centre: np.ndarray) -> np.ndarray:
+        """Take one more perceived centre (3,) m into the mean; returns the mean's change (3,) m."""
+        self.count += 1
+        change = (np.asarray(centre, float) - self.mean) / self.count
+        self.mean = self.mean + change
+        return change
+
+
 @dataclass(frozen=True)
 class Piece:
     """What one DMP piece of a skill did (:meth:`Executor._follow`).
@@ -349,19 +372,25 @@ class Executor(Approach):
         if aim.approach is not None:
             first = aim.skill.segments[0]
             here_q = self.world.ee_pose()[1]
-            if parse_task(task).primitive.grasps:  # the hand pointing down as it will grasp
+            if aim.hold:  # a round object carried: the hand keeps its heading
+                orientation = here_q
+            elif parse_task(task).primitive.grasps:  # the hand pointing down as it will grasp
                 orientation = first.orientation(1.0, here_q, aim.turn)
             else:  # as the demonstration started: an open's hand turns to the handle on the way
                 start = Rotation.from_quat(first.orientations[0, :4])
                 orientation = (start * twin_turn(start, Rotation.from_quat(here_q))).as_quat()
             self._transit(aim.approach, orientation, first.gripper, aim.over)
         adjustments, planned = 0, None
+        track = None
+        if self.config.track_target and aim.target_name is not None and aim.target is not None:
+            track = TargetTrack(aim.target_name, np.asarray(aim.target - aim.aside, float))
         for seg in aim.skill.segments:
             if self.world.time > deadline:
                 raise ExecutionError(
                     f"{task!r} ran past its time budget of {self.config.budget:.0f} s", FailureKind.TIMEOUT
                 )
-            piece = self._follow(seg, aim, monitor, depth, self.config.max_adjustments - adjustments, planned)
+            left = self.config.max_adjustments - adjustments
+            piece = self._follow(seg, aim, monitor, depth, left, planned, track)
             adjustments, planned = adjustments + piece.adjustments, piece.goal
         for _ in range(self.config.settle_steps):
             self._step(*self._last)
@@ -374,6 +403,7 @@ class Executor(Approach):
         depth: int,
         adjustable: int,
         planned: np.ndarray | None = None,
+        track: TargetTrack | None = None,
     ) -> Piece:
         """Alg. 2 lines 5–15 for one DMP piece: GenDMP towards the piece's goal (line 5, :meth:`_gen_dmp`),
         one control step per trajectory point (line 7), and after each step the contacts checked (lines
@@ -384,7 +414,9 @@ class Executor(Approach):
         to ``planned`` ((3k,) m), the previous piece's goal as Alg. 2 left it, not to the measured hand
         (issue 31): a hand held back by something (under a drawer) would otherwise carry the whole skill
         along with it (LHT2 seed 1001: the next piece's goal 0.45 m from the bowl, below the table).
-        Without ``planned`` (the first piece) it is added to the hand.
+        Without ``planned`` (the first piece) it is added to the hand. With ``track``
+        (:attr:`ExecutionConfig.track_target`), a piece anchored on the target moves its goal with the
+        mean of the target's perceived centres after every step.
 
         Raises:
             ExecutionError: the piece's goal is out of reach, or the simulation fails.
@@ -399,12 +431,14 @@ class Executor(Approach):
         rollout = self._gen_dmp(seg, start, goal, aim.descent and seg is aim.skill.segments[0])
         self._tell(rollout, goal, monitor, seg.gripper >= 0.5)
         n = max(1, math.ceil(rollout.tau / self.world.dt - 1e-9))
-        orientations = seg.orientation(np.arange(n + 1) / n, start_q, aim.turn)
+        orientations = seg.orientation(np.arange(n + 1) / n, start_q, aim.turn, aim.hold)
         k = made = 0
         while k < n:
             position, _ = rollout.step(self.world.dt)
             k += 1
             self._step(position, orientations[k], seg.gripper)
+            if track is not None and seg.anchor == "target":
+                self._track(rollout, track, aim.arms)
             if monitor is None or made >= adjustable:
                 continue
             touch = monitor.unallowed(self.world.touches(), closed=seg.gripper >= 0.5)
@@ -418,6 +452,13 @@ class Executor(Approach):
             for _ in range(max(1, back // 3)):
                 self._step(back_to, orientations[k], seg.gripper)
         return Piece(made, np.array(rollout.goal, float))
+
+    def _track(self, rollout: DMPRollout, track: TargetTrack, arms: int) -> None:
+        """Move ``rollout``'s goal by the change of ``track``'s mean with the target's centre perceived now
+        (:attr:`ExecutionConfig.track_target`)."""
+        centre = self.world.locate(track.name, self.world.observe())
+        if centre is not None:
+            rollout.set_goal(rollout.goal + np.tile(track.add(centre), arms))
 
     def _gen_dmp(
         self, seg: Segment, start: np.ndarray, goal: np.ndarray, descent: bool = False

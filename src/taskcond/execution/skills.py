@@ -208,13 +208,16 @@ class Segment:
                 profiles.append(Slerp(np.linspace(0.0, 1.0, len(quats)), Rotation.from_quat(quats)))
         return profiles
 
-    def orientation(self, fraction: float | np.ndarray, start: np.ndarray, turn: float = 0.0) -> np.ndarray:
+    def orientation(
+        self, fraction: float | np.ndarray, start: np.ndarray, turn: float = 0.0, hold: bool = False
+    ) -> np.ndarray:
         """Orientations xyzw of the k arms at ``fraction`` ∈ [0, 1] of the piece ((4k,), or (m, 4k) for m
         fractions) when it started at orientations ``start`` (4k,); ``turn`` (rad, about the world's
         vertical) turns the demonstrated profile as :meth:`goal` turns the offset.
 
         The demonstrated profile R_d(s) of each arm is carried over as ``Δ(s) R_d(s)``. For a relative
-        piece Δ is the constant world-frame rotation between the new and the demonstrated start; for the
+        piece, and for any piece with ``hold`` (:attr:`~taskcond.execution.approach.Aim.hold`), Δ is the
+        constant world-frame rotation between the new and the demonstrated start; for the
         approach it is slerped from that rotation to identity, so the hand arrives in the demonstrated
         orientation relative to the world (the target's frame). A parallel gripper turned half a turn
         about its own axis (its z) holds the same way, so R_d is taken as it was or half a turn turned,
@@ -222,7 +225,7 @@ class Segment:
         side instead of swinging it round the hand."""
         s = np.clip(np.asarray(fraction, dtype=float), 0.0, 1.0)
         u = np.atleast_1d(s)
-        weight = 1.0 - u * u * (3 - 2 * u) if self.anchor == "target" else np.ones_like(u)
+        weight = 1.0 - u * u * (3 - 2 * u) if self.anchor == "target" and not hold else np.ones_like(u)
         start = np.asarray(start, float)
         spin = Rotation.from_rotvec([0.0, 0.0, turn])
         arms = []

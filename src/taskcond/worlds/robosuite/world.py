@@ -50,8 +50,11 @@ HAND_POINTS = np.array(
 fingertips), measured from its collision geoms: the open fingers, out to 6.8 cm either side along their
 closing axis (:data:`~taskcond.worlds.robosuite.scene.CLOSING`), and the bottom of the housing, which is
 0.21 m long along that axis and 6 cm wide across it, 2.6 cm above the site."""
-HAND = Hand(housing=PANDA_HAND.housing, opening=PANDA_HAND.opening, closing=tuple(CLOSING))
-"""robosuite's Panda hand for the executor: the kitchen's, closing along the site's x."""
+HAND = Hand(
+    housing=PANDA_HAND.housing, opening=PANDA_HAND.opening, closing=tuple(CLOSING), round_carry_holds=True
+)
+"""robosuite's Panda hand for the executor: the kitchen's, closing along the site's x; a round object
+carried keeps the hand's heading (:attr:`~taskcond.execution.config.Hand.round_carry_holds`)."""
 
 
 class RobosuiteWorld:
