@@ -180,6 +180,7 @@ class EventLog:
         choice: str = "",
         scale: np.ndarray | None = None,
         descent: bool = False,
+        over: float | None = None,
     ) -> None:
         """``turn``: rad the demonstration is turned about the target's vertical axis (a grasp from
         another side); ``aside``: (3,) m the place was moved from the demonstrated spot; each reported only
@@ -187,7 +188,9 @@ class EventLog:
         or None; ``choice``: why the skill was demonstrated on other objects (empty: on these);
         ``scale``: (3,) factors on its demonstrated offset from the target (reported when not ones);
         ``descent``: ``approach`` is a pre-grasp pose above the grasp point (a grasp) or a pose above the
-        place (a carry), from which the hand comes straight down, not the demonstrated start."""
+        place (a carry), from which the hand comes straight down, not the demonstrated start; ``over``: least
+        height (m, world z) of the hand carrying its object to ``approach`` over what stands on the way, or
+        None."""
         degrees = round(math.degrees(turn))
         kind = ("pre-grasp", "pre-grasp pose") if parse_task(task).primitive.grasps else ("place", "place")
         moved = aside is not None and bool(np.any(aside))
@@ -213,7 +216,8 @@ class EventLog:
                 else f", straight down from a {kind[1]} above it at {fmt_vector(approach)}"
                 if descent
                 else f", from its demonstrated start at {fmt_vector(approach)}"
-            ),
+            )
+            + (f", carried over what stands on the way at z >= {over:.3f} m" if over is not None else ""),
             {"skill": skill.task_id, "target": target_name, "target_center": json_vector(target)}
             | ({"demonstration": skill.task_name, "similar": choice} if choice else {})
             | ({"offset_scale": json_vector(scale)} if scaled else {})
@@ -224,7 +228,8 @@ class EventLog:
                 {"approach_kind": f"{kind[0]} above" if descent else "demonstrated start"}
                 if approach is not None
                 else {}
-            ),
+            )
+            | ({"carried_over": round(over, 4)} if over is not None else {}),
         )
 
     def collision(
