@@ -309,9 +309,7 @@ class Approach:
         if target is not None and target_name is not None and skill.segments[0].anchor == "target":
             aiming = TargetAim(skill, target_name, target, obs, far, scale, descent)
         turn = 0.0 if aiming is None else self._demo_turn(aiming, grasp)
-        aside = np.zeros(3)
-        if descent and aiming is not None:
-            aside = _grip_drop(aiming, turn)
+        aside = _grip_drop(aiming, turn) if descent and aiming is not None else np.zeros(3)
         if carry and target is not None and target_name is not None:
             aside = carry_shift(task, skill, obs, here)
         if parsed.primitive.places in PLACED and target is not None and target_name is not None:

@@ -192,7 +192,7 @@ class EventLog:
         height (m, world z) of the hand carrying its object to ``approach`` over what stands on the way, or
         None."""
         degrees = round(math.degrees(turn))
-        kind = ("pre-grasp", "pre-grasp pose") if parse_task(task).primitive.grasps else ("place", "place")
+        way = _approach_note(approach, descent, parse_task(task).primitive.grasps, over)
         moved = aside is not None and bool(np.any(aside))
         scaled = scale is not None and not np.allclose(scale, 1.0)
         self.emit(
@@ -210,26 +210,13 @@ class EventLog:
                 else ""
             )
             + (f", {fmt_vector(aside)} aside of the demonstrated spot (taken)" if moved else "")
-            + (
-                ""
-                if approach is None
-                else f", straight down from a {kind[1]} above it at {fmt_vector(approach)}"
-                if descent
-                else f", from its demonstrated start at {fmt_vector(approach)}"
-            )
-            + (f", carried over what stands on the way at z >= {over:.3f} m" if over is not None else ""),
+            + way[0],
             {"skill": skill.task_id, "target": target_name, "target_center": json_vector(target)}
             | ({"demonstration": skill.task_name, "similar": choice} if choice else {})
             | ({"offset_scale": json_vector(scale)} if scaled else {})
             | ({"turn_degrees": degrees} if degrees else {})
             | ({"aside": json_vector(aside)} if moved else {})
-            | ({"approach": json_vector(approach)} if approach is not None else {})
-            | (
-                {"approach_kind": f"{kind[0]} above" if descent else "demonstrated start"}
-                if approach is not None
-                else {}
-            )
-            | ({"carried_over": round(over, 4)} if over is not None else {}),
+            | way[1],
         )
 
     def collision(
@@ -312,3 +299,26 @@ def json_vector(v: np.ndarray | None) -> list[float] | None:
 
 
 __all__ = ["Event", "EventLog", "fmt_items", "fmt_vector", "json_vector"]
+
+
+def _approach_note(
+    approach: np.ndarray | None, descent: bool, grasp: bool, over: float | None
+) -> tuple[str, dict[str, Any]]:
+    """The part of a primitive's event (:meth:`EventLog.primitive`) that says which approach the hand took:
+    text for the message and entries for its data (``approach``, ``approach_kind``, ``carried_over``)."""
+    if approach is None:
+        return "", {}
+    kind = ("pre-grasp", "pre-grasp pose") if grasp else ("place", "place")
+    text = (
+        f", straight down from a {kind[1]} above it at {fmt_vector(approach)}"
+        if descent
+        else f", from its demonstrated start at {fmt_vector(approach)}"
+    )
+    data: dict[str, Any] = {
+        "approach": json_vector(approach),
+        "approach_kind": f"{kind[0]} above" if descent else "demonstrated start",
+    }
+    if over is not None:
+        text += f", carried over what stands on the way at z >= {over:.3f} m"
+        data["carried_over"] = round(over, 4)
+    return text, data
