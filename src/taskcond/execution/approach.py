@@ -807,9 +807,13 @@ def _carry_height(
 def _support_below(obj: str, obs: Observation, arms: Sequence[str]) -> float | None:
     """The height (m, world z) of the highest top among the bounding boxes under the middle of ``obj``'s
     footprint (its central half in x and y: a neighbour's box that only overlaps a corner of a round
-    object's is beside it, not under it) and below its bottom, or None when nothing is under it."""
+    object's is beside it, not under it) and below its bottom, or None when nothing is under it or it is
+    inside a container's box (:func:`_encloses`), whose floor is no box of its own."""
     lower, upper = obs.boxes[obj]
     middle, half = (lower[:2] + upper[:2]) / 2, (upper[:2] - lower[:2]) / 4
+    walls = [b for b in _others(obj, obs, arms) if b[1][2] > lower[2] + SET_DOWN_GAP]
+    if any(_encloses(b, (lower, upper)) for b in walls):
+        return None  # inside a container (the open top drawer): its floor is not a box of its own
     tops = [
         float(hi[2])
         for name, (lo, hi) in obs.boxes.items()
@@ -820,6 +824,11 @@ def _support_below(obj: str, obs: Observation, arms: Sequence[str]) -> float | N
         and np.all(hi[:2] > middle - half)
     ]
     return max(tops, default=None)
+
+
+def _others(obj: str, obs: Observation, arms: Sequence[str]) -> list[tuple[np.ndarray, np.ndarray]]:
+    """The perceived boxes (lower, upper (3,) m) of everything but ``obj`` and the ``arms``."""
+    return [box for name, box in obs.boxes.items() if name != obj and name not in arms]
 
 
 def _empty_hand_scale(task: str, skill: Skill, obs: Observation) -> np.ndarray:
