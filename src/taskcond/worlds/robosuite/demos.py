@@ -23,7 +23,7 @@ from taskcond.worlds.robosuite.scene import make_env, reset
 from taskcond.worlds.robosuite.tasks import Command, down, get_task, oracle
 from taskcond.worlds.robosuite.world import RobosuiteWorld
 
-ORACLE_REVISION = 12
+ORACLE_REVISION = 13
 """Revision of the robosuite oracles the default library is learned from; raised whenever their
 demonstrations change, so that an older library is not picked up by default."""
 SETTLE = 5

@@ -251,16 +251,23 @@ def grasp(scene: RobosuiteScene, obj: str, quat: np.ndarray) -> Iterator[Command
     grip = np.array([centre[0], centre[1], max(lower[2] + GRIP_FLOOR, upper[2] - GRIP_DEPTH)])
     above = np.array([*grip[:2], upper[2] + ABOVE])
     yield from _path(
-        [
-            (np.array([*here[:2], max(here[2], above[2])]), 0.0),
-            (above, 0.0),
-            (grip, 0.0),
-            (grip, 1.0),
-            (grip + np.array([0.0, 0.0, LIFT]), 1.0),
-        ],
-        here,
-        quat,
+        [(np.array([*here[:2], max(here[2], above[2])]), 0.0), (above, 0.0), (grip, 0.0)], here, quat
     )
+    yield from _close_and_lift(grip, quat)
+
+
+def _close_and_lift(grip: np.ndarray, quat: np.ndarray) -> Iterator[Command]:
+    """Hold still at ``grip`` (3,) m with the hand open (:data:`HOLD` steps), close, lift :data:`LIFT`; the
+    hand at ``quat`` (4,) xyzw. The standstill ends the learned grasp's approach there
+    (:func:`~taskcond.execution.skills.split_points`): its DMP piece then ends holding still at the grip, and
+    the arm, which lags its commands by 1.5-2.5 cm on a descent, arrives before the closing piece starts
+    where the hand is. Without it, the milk's grasp closed 1.3 cm below its top instead of 3.5 cm, on the
+    gable roof of its carton (the top 2.6 cm narrow to a ridge along its own y): turned a quarter turn, the
+    fingers closed across the roof's slopes, lifted it by the fingers' rims and not their pads, and
+    robosuite's ``_check_grasp`` (both pads on the object) said not held."""
+    for _ in range(HOLD):
+        yield grip, quat, 0.0
+    yield from _path([(grip, 0.0), (grip, 1.0), (grip + np.array([0.0, 0.0, LIFT]), 1.0)], grip, quat)
 
 
 def _turned(quat: np.ndarray, angle: float) -> np.ndarray:
@@ -288,9 +295,7 @@ def grasp_ring(scene: RobosuiteScene, obj: str, quat: np.ndarray) -> Iterator[Co
     yield from _turning(high, above, quat, held, 0.0)
     for position in _line(above, grip, FINAL_SPEED):
         yield position, held, 0.0
-    for _ in range(HOLD):  # a standstill at the grip: the learned grasp's approach ends there
-        yield grip, held, 0.0
-    yield from _path([(grip, 0.0), (grip, 1.0), (grip + np.array([0.0, 0.0, LIFT]), 1.0)], grip, held)
+    yield from _close_and_lift(grip, held)
 
 
 def _turning(
