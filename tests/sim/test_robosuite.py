@@ -170,6 +170,27 @@ def test_condition_guided_lift_from_one_demonstration(tmp_path) -> None:  # type
     assert table["config"]["world"].startswith("robosuite ")
 
 
+def test_milk_turned_a_quarter_turn_held_by_the_pads_below_its_gable_roof() -> None:
+    """The milk stands turned -83° (seed 1013): the fingers close across its carton's gable roof. The
+    grasp learned from one demonstration holds still at its grip before closing, so the lagging arm
+    closes there, below the roof, and both pads hold it (robosuite's ``_check_grasp``); without the
+    standstill it closed 1.3 cm below the top, lifted the milk by the fingers' rims and timed out."""
+    demos, ok = record_demonstrations("PickPlaceMilk", seed=0)
+    assert ok and len(demos) == 3
+    library = SkillLibrary()
+    for demo in demos:
+        library.add(learn_skill(demo))
+    env = make_env("PickPlaceMilk")
+    try:
+        assert abs(abs(np.degrees(reset(env, 1013).yaw("milk"))) - 90.0) < 10.0  # a quarter turn
+    finally:
+        env.close()
+    task = TASKS["PickPlaceMilk"]
+    result = run_episode(task, "env", 1013, library, make_source("env", library), noise=0.005)
+    assert result.success, result.reason
+    assert not [e for e in result.events if e["kind"] == "post_missing"]  # the grasp held the first time
+
+
 def test_cli_world_option() -> None:
     runner = CliRunner()
     listed = runner.invoke(app, ["tasks", "--world", "robosuite", "--json"])
