@@ -322,7 +322,10 @@ def target_object(task_name: str) -> str | None:
 
 def split_points(demo: Demonstration) -> list[int]:
     """Sample indices where the demonstration is cut into DMP pieces (see the module doc): every gripper
-    command change, and the end of the approach."""
+    command change, and the end of the approach: the last standstill up to the first contact with the
+    target or gripper change, or that change if the hand stands still from there to it (robosuite's arm,
+    lagging its oracle's standstill at the grip, touches the object before the hand closes; cut at the
+    touch, the grasp had an open piece more and lost its straight descent, issue 32)."""
     n = len(demo.times)
     changes = [k for k in range(1, n) if abs(demo.gripper[k] - demo.gripper[k - 1]) > 1e-9]
     cuts = set(changes)
@@ -333,7 +336,10 @@ def split_points(demo: Demonstration) -> list[int]:
     speed = np.linalg.norm(velocity, axis=2).max(axis=1)  # the fastest arm's
     if first > 0:
         still = [k for k in range(MIN_SEGMENT_SAMPLES, first + 1) if speed[k] < STANDSTILL]
-        cuts.add(still[-1] if still else first)
+        cut = still[-1] if still else first
+        if changes and cut < changes[0] and np.all(speed[cut : changes[0] + 1] < STANDSTILL):
+            cut = changes[0]  # touched during the standstill before the hand closes: one approach
+        cuts.add(cut)
     else:  # a carry that never touches its target: the approach ends before the last movement
         moving = speed >= STANDSTILL
         still = [k for k in range(MIN_SEGMENT_SAMPLES, n) if not moving[k] and moving[k + 1 :].any()]
