@@ -100,6 +100,20 @@ def test_demonstration_is_cut_at_the_approach_end_and_the_gripper_events() -> No
     assert_allclose(skill.start_offset, np.array([0.3, 0.0, 0.5]) - [0.5, 0.1, 0.06])
 
 
+def test_a_touch_while_standing_still_before_the_close_ends_the_approach_at_the_close() -> None:
+    """The hand stands still at the grip from sample 91 and closes at 100; the target is touched at 95
+    (an arm lagging its commands arrives during the standstill): one approach piece up to the close, so
+    that the grasp keeps its straight descent, not an open piece more from the touch on."""
+    demo = _grasp_demo()
+    gripper = np.zeros(len(demo.times))
+    gripper[100:] = 1.0
+    held = dataclasses.replace(demo, gripper=gripper, target_contact=95)
+    assert split_points(held) == [100]
+    assert [s.gripper for s in learn_skill(held).segments] == [0.0, 1.0]
+    moving = dataclasses.replace(held, target_contact=85)  # touched on the way down: cut at the stop above
+    assert split_points(moving) == [60, 100]
+
+
 def test_segment_goals_follow_the_target_and_the_demonstrated_displacement() -> None:
     skill = learn_skill(_grasp_demo())
     approach, down, lift = skill.segments

@@ -180,6 +180,8 @@ def test_milk_turned_a_quarter_turn_held_by_the_pads_below_its_gable_roof() -> N
     library = SkillLibrary()
     for demo in demos:
         library.add(learn_skill(demo))
+    grasp = library.skills["PickPlaceMilk.1"].segments  # touched while standing still, one approach:
+    assert [s.gripper for s in grasp] == [0.0, 1.0]  # the straight descent (``_descends``) kept
     env = make_env("PickPlaceMilk")
     try:
         assert abs(abs(np.degrees(reset(env, 1013).yaw("milk"))) - 90.0) < 10.0  # a quarter turn
