@@ -1,0 +1,131 @@
+"""xllamacpp server settings side by side: one backend per setting in one process, uncached, the settings
+alternating per condition (who goes first rotates), so that all see the same load on a shared machine.
+
+Reports each setting's Table II accuracy, its median seconds per condition, and how many answers equal the
+first setting's; ``--tokens`` also prints, per condition of the first setting, the tokens evaluated before
+the answering requests (the repeated own example and the tokens that cut a slot back), the question's
+tokens evaluated by the answering requests, and the tokens generated, drafted and accepted.
+
+    .venv/bin/python benchmarks/bench_xllamacpp_settings.py [--settings base fa_off poll0] [--trials 1]
+        [--mode generation] [--tokens]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import statistics
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any
+
+import xllamacpp
+
+from taskcond.evaluation import score_trial
+from taskcond.generator import ConditionGenerator
+from taskcond.llm.xllamacpp_backend import XLlamaCppBackend
+from taskcond.primitives import PRIMITIVES
+
+
+def _set(**values: Any) -> Callable[[Any], None]:
+    def apply(p: Any) -> None:
+        for name, value in values.items():
+            if name == "poll":  # busy-waiting of the OpenMP threads, 0-100
+                p.cpuparams.poll = p.cpuparams_batch.poll = value
+            else:
+                setattr(p, name, value)
+
+    return apply
+
+
+SETTINGS: dict[str, Callable[[Any], None]] = {
+    "base": _set(),
+    "fa_off": _set(flash_attn_type=0),  # -1 (auto) turns flash attention on on the CPU
+    "poll0": _set(poll=0),
+    "kv_q8": _set(cache_type_k=8, cache_type_v=8),  # GGML_TYPE_Q8_0
+}
+
+
+@dataclass
+class Requests:
+    """The server's timings of one condition's requests."""
+
+    log: list[dict] = field(default_factory=list)
+
+    def wrap(self, backend: XLlamaCppBackend) -> None:
+        complete = backend._complete
+
+        def logged(body: dict) -> dict:
+            out = complete(body)
+            self.log.append({"n_predict": body.get("n_predict"), **out.get("timings", {})})
+            return out
+
+        backend._complete = logged  # type: ignore[method-assign]
+
+    def summary(self) -> dict[str, int]:
+        evals = [t for t in self.log if t["n_predict"] == 0]
+        answers = [t for t in self.log if t["n_predict"] != 0]
+        return {
+            "evaluated": sum(t.get("prompt_n", 0) for t in evals),
+            "question": sum(t.get("prompt_n", 0) for t in answers),
+            "generated": sum(t.get("predicted_n", 0) for t in answers),
+            "drafted": sum(t.get("draft_n", 0) for t in answers),
+            "accepted": sum(t.get("draft_n_accepted", 0) for t in answers),
+        }
+
+
+def backend_with(setting: str) -> XLlamaCppBackend:
+    """A started backend whose server was made with ``setting`` applied to its parameters."""
+    real = xllamacpp.Server
+
+    def server(p: Any) -> Any:
+        SETTINGS[setting](p)
+        return real(p)
+
+    xllamacpp.Server = server
+    try:
+        backend = XLlamaCppBackend()
+        backend._load()
+    finally:
+        xllamacpp.Server = real
+    return backend
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--settings", nargs="+", choices=list(SETTINGS), default=["base", "fa_off", "poll0"])
+    ap.add_argument("--trials", type=int, default=1)
+    ap.add_argument("--mode", default="generation", choices=["generation", "generalization"])
+    ap.add_argument("--tokens", action="store_true", help="token counts of the first setting's conditions")
+    args = ap.parse_args()
+    names = args.settings
+    backends = {n: backend_with(n) for n in names}
+    requests = Requests()
+    requests.wrap(backends[names[0]])
+    generators = {n: ConditionGenerator(b) for n, b in backends.items()}
+    pids = [p for p in PRIMITIVES if not PRIMITIVES[p].declared]
+    results: dict[str, list] = {n: [] for n in names}
+    for k, (trial, pid) in enumerate((t, p) for t in range(args.trials) for p in pids):
+        row: dict[str, Any] = {"trial": trial, "primitive": pid}
+        for n in names[k % len(names) :] + names[: k % len(names)]:
+            requests.log.clear()
+            outcome = score_trial(generators[n], pid, args.mode, trial)
+            results[n].append(outcome)
+            row[n] = [outcome.correct, round(outcome.seconds, 2)]
+            if args.tokens and n == names[0]:
+                row["tokens"] = requests.summary()
+        print(json.dumps(row), flush=True)
+    print("| setting | correct | median s per condition | median s without the first | same answers |")
+    print("|---|---|---|---|---|")
+    for n in names:
+        secs = [o.seconds for o in results[n]]
+        same = sum(o.answer == f.answer for o, f in zip(results[n], results[names[0]], strict=True))
+        correct = sum(o.correct for o in results[n])
+        print(
+            f"| {n} | {correct}/{len(secs)} | {statistics.median(secs):.2f} | "
+            f"{statistics.median(secs[1:] or secs):.2f} | {same}/{len(secs)} |"
+        )
+
+
+if __name__ == "__main__":
+    main()
