@@ -53,12 +53,15 @@ def main() -> None:
     parser.add_argument("--episodes", type=int, default=3)
     parser.add_argument("--seed", type=int, default=1000)
     parser.add_argument("--cells", default="grasp,move_into")
+    parser.add_argument("--match", default="", help="only the cells whose label contains this")
     args = parser.parse_args()
     library = load_library()
     source = make_source("env", library)
     total = fallen = ok_all = 0
     print("| cell | success | fallen | failures |\n|---|---|---|---|")
     for label, steps, goal in _cells(set(args.cells.split(","))):
+        if args.match not in label:
+            continue
         plan = RunPlan(label, None, steps)
         goal_predicates = tuple(parse_predicate(g) for g in goal)
         results = [
