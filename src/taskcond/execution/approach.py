@@ -316,6 +316,8 @@ class Approach:
         aside = _grip_drop(aiming, turn) if descent and aiming is not None else np.zeros(3)
         if carry and target is not None and target_name is not None:
             aside = carry_shift(task, skill, obs, here)
+            if parsed.primitive.places is Relation.INSIDE:
+                aside = aside + self._rim(skill, target_name, target + aside, obs, here)
         if parsed.primitive.places in PLACED and target is not None and target_name is not None:
             aside = aside + self._aside(skill, target_name, target + aside, obs, parsed.primitive.places)
         approach = target + aside + turned(skill.start_offset, turn) if far and target is not None else None
@@ -327,6 +329,26 @@ class Approach:
         placed = (task, skill, target_name, None if target is None else target + aside, turn, aside)
         hold = carry and self.hand.round_carry_holds and parsed.objects[0] in obs.round
         return Aim(*placed, way.approach, way.over, scale, choice.reason, way.descent, hold)
+
+    def _rim(
+        self, skill: Skill, container: str, target: np.ndarray, obs: Observation, here: np.ndarray
+    ) -> np.ndarray:
+        """(3,) m up by which a move into ``container`` (a one-arm ``skill`` aimed at ``target``, its centre
+        with the place's shift, (3,) m, from the hand at ``here`` (3,) m) raises its place so that the
+        fingertips end :attr:`ExecutionConfig.clearance` above the container's perceived top, when the
+        container is a free vessel (:attr:`~taskcond.execution.world.Observation.shapes`: the mug, the
+        bowl, no wider inside than the open fingers): the release opens the hand there, and fingers opened
+        inside the vessel press on its walls and hold it (issue 31: the toothpaste, held lower by
+        :func:`_grip_drop`, was let go inside the mug, and the hand then grasped the mug). The object drops
+        the rest of the way in; zero when the fingertips already end above the rim or for another
+        container (a drawer, the box)."""
+        if skill.arms != 1 or obs.shapes.get(container) != "vessel":
+            return np.zeros(3)
+        end = np.asarray(here, float)
+        for segment in skill.segments:
+            end = segment.goal(end, target)
+        top = float(obs.boxes[container][1][2])
+        return np.array([0.0, 0.0, max(0.0, top + self.config.clearance - float(end[2]))])
 
     def _carried_way(
         self,
