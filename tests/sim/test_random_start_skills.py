@@ -335,3 +335,24 @@ def test_a_carry_goes_over_a_neighbour_and_sets_a_slender_object_down_from_above
         assert obs.holds(SpatialRelation("toothpaste", Relation.IN_FRONT_OF, "box"))
     finally:
         env.close()
+
+
+def test_a_slender_object_is_let_go_into_the_mug_with_the_fingertips_above_its_rim() -> None:
+    """Issue 31: the toothpaste, held GRIP_DEPTH below its top, is carried into the mug. Its place is raised
+    so that the fingertips end above the mug's rim (the fingers opened inside the mug pressed on its walls
+    and held it, LHT3 seed 1000); the toothpaste drops in, the hand is empty and the mug stands where it
+    stood."""
+    library = learn_library(None, ["grasp-toothpaste", "move_into-toothpaste-mug", "release-toothpaste"])
+    env, world = _scene({"toothpaste": (0.30, 0.12), "mug": (0.36, -0.22)})
+    try:
+        mug = world.observe().centers["mug"]
+        executor = Executor(world, library, method="env", source=EnvConditions(library))
+        assert executor.run(["grasp toothpaste", "move toothpaste into mug"]).completed
+        assert world.ee_pose()[0][2] > world.observe().boxes["mug"][1][2]
+        result = executor.run(["release toothpaste"])
+        obs = world.observe()
+        assert result.completed and obs.grasped() is None and not {"mug", "toothpaste"} & obs.lying
+        assert obs.holds(SpatialRelation("toothpaste", Relation.INSIDE, "mug"))
+        assert np.linalg.norm(obs.centers["mug"][:2] - mug[:2]) < 0.01
+    finally:
+        env.close()
