@@ -14,9 +14,9 @@ pytest.importorskip("pybullet")
 import pybullet
 
 from taskcond.application.demonstrations import learn_library
-from taskcond.conditions import ContainerState
+from taskcond.conditions import ContainerState, Relation, SpatialRelation
 from taskcond.envs.kitchen import KitchenEnv
-from taskcond.execution.approach import BACK_OFF_HEIGHT
+from taskcond.execution.approach import BACK_OFF_HEIGHT, GRIP_DEPTH
 from taskcond.execution.config import ExecutionConfig
 from taskcond.execution.executor import Executor
 from taskcond.execution.sources import EnvConditions
@@ -296,5 +296,63 @@ def test_a_spatula_grasp_turns_with_the_perceived_heading_and_holds() -> None:
         assert aim.data["turn_degrees"] == 70
         assert result.completed and world.observe().grasped() == "spatula"
         assert not world.observe().lying
+    finally:
+        env.close()
+
+
+def test_a_carry_goes_over_a_neighbour_and_sets_a_slender_object_down_from_above() -> None:
+    """Issue 31: the toothpaste carried in front of the box with the bottle standing on the straight way
+    between them. The grasp closes GRIP_DEPTH below the toothpaste's top (nearer its centre of mass than
+    the demonstrated 1 cm), the carry goes over the bottle to a place above the spot and comes straight
+    down, so nothing is touched on the way (the demonstrated way runs the toothpaste into the bottle), and
+    both stand at the end; the trace says which way was taken and how high."""
+    library = learn_library(None, ["grasp-toothpaste", "move_in_front-mug-box", "release-toothpaste"])
+    env, world = _scene(
+        {
+            "toothpaste": (0.25, -0.45),
+            "bottle": (0.30, -0.30),
+            "bowl": (0.15, 0.45),
+            "mug": (0.30, 0.45),
+            "spatula": (0.25, 0.30),
+            "cube": (0.45, 0.12),
+            "can": (0.30, 0.15),
+        }
+    )
+    try:
+        bottle = world.observe().centers["bottle"]
+        executor = Executor(world, library, method="env", source=EnvConditions(library))
+        result = executor.run(["grasp toothpaste"])
+        hand, top = world.ee_pose()[0][2], world.observe().boxes["toothpaste"][1][2]
+        assert result.completed and top - hand > GRIP_DEPTH - 0.01
+        result = executor.run(["move toothpaste in front of box", "release toothpaste"])
+        (carry,) = [e for e in result.events if e.kind == "primitive" and e.task.startswith("move")]
+        assert carry.data["approach_kind"] == "place above"
+        assert carry.data["carried_over"] > world.observe().boxes["bottle"][1][2]
+        assert not [e for e in result.events if e.kind == "collision"]
+        obs = world.observe()
+        assert result.completed and not obs.lying, obs.lying
+        assert np.linalg.norm(obs.centers["bottle"] - bottle) < 0.005
+        assert obs.holds(SpatialRelation("toothpaste", Relation.IN_FRONT_OF, "box"))
+    finally:
+        env.close()
+
+
+def test_a_slender_object_is_let_go_into_the_mug_with_the_fingertips_above_its_rim() -> None:
+    """Issue 31: the toothpaste, held GRIP_DEPTH below its top, is carried into the mug. Its place is raised
+    so that the fingertips end above the mug's rim (the fingers opened inside the mug pressed on its walls
+    and held it, LHT3 seed 1000); the toothpaste drops in, the hand is empty and the mug stands where it
+    stood."""
+    library = learn_library(None, ["grasp-toothpaste", "move_into-toothpaste-mug", "release-toothpaste"])
+    env, world = _scene({"toothpaste": (0.30, 0.12), "mug": (0.36, -0.22)})
+    try:
+        mug = world.observe().centers["mug"]
+        executor = Executor(world, library, method="env", source=EnvConditions(library))
+        assert executor.run(["grasp toothpaste", "move toothpaste into mug"]).completed
+        assert world.ee_pose()[0][2] > world.observe().boxes["mug"][1][2]
+        result = executor.run(["release toothpaste"])
+        obs = world.observe()
+        assert result.completed and obs.grasped() is None and not {"mug", "toothpaste"} & obs.lying
+        assert obs.holds(SpatialRelation("toothpaste", Relation.INSIDE, "mug"))
+        assert np.linalg.norm(obs.centers["mug"][:2] - mug[:2]) < 0.01
     finally:
         env.close()

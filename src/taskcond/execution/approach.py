@@ -196,10 +196,11 @@ class Approach:
         )
 
     def _set_down(self, task: str, depth: int) -> None:
-        """Beyond the paper: before a release that Alg. 1 raised to free the hand (another primitive needs
-        ``gripper not grasping``), lower the held object onto what lies under it (:meth:`_lower`), so that
-        it is put down rather than dropped from where the hand happened to be (a dropped bottle falls
-        over, and no grasp skill picks up a lying object)."""
+        """Beyond the paper: before a release, lower the held object onto what lies under it
+        (:meth:`_lower`), so that it is put down rather than dropped from where the hand happened to be (a
+        dropped bottle falls over, and no grasp skill picks up a lying object): a release Alg. 1 raised to
+        free the hand (another primitive needs ``gripper not grasping``), and a release after a move whose
+        hand ended above the place (issue 31: a carry held back on its way down)."""
         held = parse_task(task).objects[0]
         if self.world.observe().grasped() == held:
             self._lower(task, depth, held)
@@ -312,49 +313,73 @@ class Approach:
         if target is not None and target_name is not None and skill.segments[0].anchor == "target":
             aiming = TargetAim(skill, target_name, target, obs, far, scale, descent)
         turn = 0.0 if aiming is None else self._demo_turn(aiming, grasp)
-        aside = np.zeros(3)
+        aside = _grip_drop(aiming, turn) if descent and aiming is not None else np.zeros(3)
         if carry and target is not None and target_name is not None:
             aside = carry_shift(task, skill, obs, here)
+            if parsed.primitive.places is Relation.INSIDE:
+                aside = aside + self._rim(skill, target_name, target + aside, obs, here)
         if parsed.primitive.places in PLACED and target is not None and target_name is not None:
             aside = aside + self._aside(skill, target_name, target + aside, obs, parsed.primitive.places)
         approach = target + aside + turned(skill.start_offset, turn) if far and target is not None else None
         if descent and aiming is not None:
             approach = self._pregrasp(aiming, turn)
         way = CarriedWay(approach, None, descent)
-        if carry and approach is not None and target is not None:
+        if carry and target is not None:
             way = self._carried_way(task, skill, target + aside, approach, obs, here)
         placed = (task, skill, target_name, None if target is None else target + aside, turn, aside)
         hold = carry and self.hand.round_carry_holds and parsed.objects[0] in obs.round
         return Aim(*placed, way.approach, way.over, scale, choice.reason, way.descent, hold)
+
+    def _rim(
+        self, skill: Skill, container: str, target: np.ndarray, obs: Observation, here: np.ndarray
+    ) -> np.ndarray:
+        """(3,) m up by which a move into ``container`` (a one-arm ``skill`` aimed at ``target``, its centre
+        with the place's shift, (3,) m, from the hand at ``here`` (3,) m) raises its place so that the
+        fingertips end :attr:`ExecutionConfig.clearance` above the container's perceived top, when the
+        container is a free vessel (:attr:`~taskcond.execution.world.Observation.shapes`: the mug, the
+        bowl, no wider inside than the open fingers): the release opens the hand there, and fingers opened
+        inside the vessel press on its walls and hold it (issue 31: the toothpaste, held lower by
+        :func:`_grip_drop`, was let go inside the mug, and the hand then grasped the mug). The object drops
+        the rest of the way in; zero when the fingertips already end above the rim or for another
+        container (a drawer, the box)."""
+        if skill.arms != 1 or obs.shapes.get(container) != "vessel":
+            return np.zeros(3)
+        end = np.asarray(here, float)
+        for segment in skill.segments:
+            end = segment.goal(end, target)
+        top = float(obs.boxes[container][1][2])
+        return np.array([0.0, 0.0, max(0.0, top + self.config.clearance - float(end[2]))])
 
     def _carried_way(
         self,
         task: str,
         skill: Skill,
         target: np.ndarray,
-        approach: np.ndarray,
+        approach: np.ndarray | None,
         obs: Observation,
         here: np.ndarray,
     ) -> CarriedWay:
-        """The way of a carry that starts with a transit to ``approach`` (3,) m (the skill's demonstrated
-        start relative to ``target``, the target's centre with the place's shift, (3,) m), from the hand at
-        ``here`` (3,) m: over what lies on the way (:func:`_carry_height`). A move on top of a target the
-        skill was not demonstrated on (the cabinet borrowing the box's) goes to :data:`PLACE_DESCENT` straight
-        above the place instead and comes straight down (:attr:`Aim.descent`, issue 31): the demonstrated
-        way, which rises beside the box and over its edge, runs into the front of a taller or deeper target
-        (the toothpaste carried into the cabinet's top drawer)."""
+        """The way of a carry from the hand at ``here`` (3,) m to the place at ``target`` (the target's
+        centre with the place's shift, (3,) m). A move that sets its object down on top of or in front of
+        its target (:data:`CARRIED_OVER`) goes over everything on the way (:func:`_carry_height`) to
+        :data:`PLACE_DESCENT` straight above where its first piece sets the object down, and comes straight
+        down (:attr:`Aim.descent`, issue 31), however near the hand already is: the demonstrated way runs
+        low through whatever stands between the grasp and the place in another scene (a neighbour knocked
+        over in 26 of 324 episodes from random starts), and, on a target the skill was not demonstrated on
+        (the cabinet borrowing the box's), rises beside the box and runs into the taller target's front.
+        The skill's later pieces (the demonstrated last lowering) are kept. Another carry with a transit to
+        ``approach`` (3,) m, the skill's demonstrated start relative to ``target``, goes over what lies on
+        the way; without one (None) the demonstrated way is followed from the hand."""
         parsed = parse_task(task)
-        held, target_name = parsed.objects[0], parsed.objects[-1]
-        first, descent = skill.segments[0], False
-        borrowed = target_name != parse_task(skill.task_name).objects[-1]
-        if (
-            parsed.primitive.places is Relation.ABOVE
-            and borrowed
-            and first.anchor == "target"
-            and skill.arms == 1
-        ):
-            approach = first.goal(first.dmp.y0, target) + np.array([0.0, 0.0, PLACE_DESCENT])
-            descent = True
+        held, first = parsed.objects[0], skill.segments[0]
+        descent = parsed.primitive.places in CARRIED_OVER and first.anchor == "target" and skill.arms == 1
+        place = first.goal(first.dmp.y0, target)
+        if descent and not _overhung(held, place, here, obs, self.world.arms):
+            approach = place + np.array([0.0, 0.0, PLACE_DESCENT])
+        else:
+            descent = False
+        if approach is None:
+            return CarriedWay(None, None, False)
         return CarriedWay(approach, _carry_height(held, here, approach, obs, self.world.arms), descent)
 
     def _turnable(self, target_name: str, obs: Observation) -> bool:
@@ -636,6 +661,13 @@ def heading_turn(change: float, period: float = math.pi) -> float:
     return float((change + period / 2) % period - period / 2)
 
 
+SLENDER = 2.0
+"""Least ratio of a perceived box's height to its narrower horizontal side of an object that an
+object-centred grasp holds lower (:func:`_grip_drop`)."""
+GRIP_DEPTH = 0.03
+"""Depth (m) below the top of a slender object's perceived box at which its grasp closes at the highest
+(:func:`_grip_drop`; the bottle's demonstrated grasp closes 3.3 cm below its top, the Panda hand's housing
+:attr:`~taskcond.execution.config.Hand.housing` 4.5 cm above the fingertips)."""
 PREGRASP_CLEARANCE = 0.05
 """Least height (m) of the fingertips above the top of the target's perceived box at the pre-grasp pose of
 an object-centred grasp (:meth:`Approach._pregrasp`)."""
@@ -660,8 +692,11 @@ SWEEP_TOLERANCE = 0.005
 fingertips brush what stands right beside the object)."""
 
 PLACE_DESCENT = 0.05
-"""Height (m) above the place from which a carry onto the top of a target its skill was not demonstrated on
-comes straight down (:meth:`Approach._carried_way`)."""
+"""Height (m) above the place from which a carry on top of or in front of a target comes straight down
+(:meth:`Approach._carried_way`)."""
+CARRIED_OVER = (Relation.ABOVE, Relation.IN_FRONT_OF)
+"""The relations a move places its object in that it carries it to over everything on the way and sets it
+down straight from above (:meth:`Approach._carried_way`)."""
 PLACED = (Relation.ABOVE, Relation.IN_FRONT_OF)
 """The relations a move places its object in whose demonstrated spot :meth:`Approach._aside` clears."""
 PLACE_ABOVE = 0.01
@@ -719,6 +754,23 @@ def _tall(name: str, obs: Observation) -> bool:
     return bool(size[2] >= min(size[0], size[1]))
 
 
+def _grip_drop(g: TargetAim, turn: float) -> np.ndarray:
+    """(3,) m down by which an object-centred grasp (:attr:`Aim.descent`) ``g`` of a slender object (its
+    perceived box at least :data:`SLENDER` times as high as its narrower horizontal side: the toothpaste)
+    closes below the demonstrated grasp point (the skill's open piece's goal, turned by ``turn`` rad): no
+    higher than :data:`GRIP_DEPTH` below the top of the box and no lower than its centre; zero for another
+    object or a grasp point already that low (issue 31: the toothpaste held 1 cm below its top pivoted
+    about the fingers during the carry, ~20°, and fell when the hand opened; held nearer its centre of
+    mass, the weight's lever about the grip is shorter)."""
+    lo, hi = g.obs.boxes[g.target_name]
+    size = hi - lo
+    if size[2] < SLENDER * min(size[0], size[1]):
+        return np.zeros(3)
+    grasp = float(g.skill.segments[0].goal(g.target, g.target, turn, g.scale)[2])
+    lowest = max(float(hi[2]) - GRIP_DEPTH, float(g.target[2]))
+    return np.array([0.0, 0.0, min(0.0, lowest - grasp)])
+
+
 def _encloses(box: tuple[np.ndarray, np.ndarray], inner: tuple[np.ndarray, np.ndarray] | None) -> bool:
     """Whether ``box`` (lower, upper (3,) m) holds all of ``inner`` (a box, or None) within its sides and
     above its bottom: a container the object stands in."""
@@ -744,6 +796,21 @@ def _descends(skill: Skill) -> bool:
     )
 
 
+def _overhung(held: str, place: np.ndarray, here: np.ndarray, obs: Observation, arms: Sequence[str]) -> bool:
+    """Whether a perceived box hangs over the place where the hand, now at ``here`` (3,) m holding
+    ``held``, sets it down with the hand at ``place`` (3,) m: its bottom above the carried object's bottom
+    there and its footprint within :data:`CARRY_MARGIN` of the carried object's (an open drawer above the
+    spot in front of the cabinet), so that the object cannot come down onto the place from above."""
+    lower, upper = obs.boxes[held]
+    bottom = float(place[2] - (here[2] - lower[2]))
+    half = (upper[:2] - lower[:2]) / 2 + CARRY_MARGIN
+    return any(
+        float(lo[2]) > bottom and np.all(lo[:2] < place[:2] + half) and np.all(hi[:2] > place[:2] - half)
+        for name, (lo, hi) in obs.boxes.items()
+        if name not in (held, *arms)
+    )
+
+
 def _carry_height(
     held: str, here: np.ndarray, goal: np.ndarray, obs: Observation, arms: Sequence[str]
 ) -> float:
@@ -766,9 +833,13 @@ def _carry_height(
 def _support_below(obj: str, obs: Observation, arms: Sequence[str]) -> float | None:
     """The height (m, world z) of the highest top among the bounding boxes under the middle of ``obj``'s
     footprint (its central half in x and y: a neighbour's box that only overlaps a corner of a round
-    object's is beside it, not under it) and below its bottom, or None when nothing is under it."""
+    object's is beside it, not under it) and below its bottom, or None when nothing is under it or it is
+    inside a container's box (:func:`_encloses`), whose floor is no box of its own."""
     lower, upper = obs.boxes[obj]
     middle, half = (lower[:2] + upper[:2]) / 2, (upper[:2] - lower[:2]) / 4
+    walls = [b for b in _others(obj, obs, arms) if b[1][2] > lower[2] + SET_DOWN_GAP]
+    if any(_encloses(b, (lower, upper)) for b in walls):
+        return None  # inside a container (the open top drawer): its floor is not a box of its own
     tops = [
         float(hi[2])
         for name, (lo, hi) in obs.boxes.items()
@@ -779,6 +850,11 @@ def _support_below(obj: str, obs: Observation, arms: Sequence[str]) -> float | N
         and np.all(hi[:2] > middle - half)
     ]
     return max(tops, default=None)
+
+
+def _others(obj: str, obs: Observation, arms: Sequence[str]) -> list[tuple[np.ndarray, np.ndarray]]:
+    """The perceived boxes (lower, upper (3,) m) of everything but ``obj`` and the ``arms``."""
+    return [box for name, box in obs.boxes.items() if name != obj and name not in arms]
 
 
 def _empty_hand_scale(task: str, skill: Skill, obs: Observation) -> np.ndarray:
@@ -806,12 +882,19 @@ def perceived_shapes(obs: Observation, names: Sequence[str]) -> dict[str, Object
     }
 
 
+HOLD_TOLERANCE = 0.01
+"""Difference (m) of the hand's height above a carried object's bottom from its demonstration's beyond
+which a carry of the demonstrated object itself is shifted by it (:func:`carry_shift`: the toothpaste held
+lower, :func:`_grip_drop`); smaller ones are perception noise."""
+
+
 def carry_shift(task: str, skill: Skill, obs: Observation, hand: np.ndarray) -> np.ndarray:
     """(3,) m by which a carry borrowed from other objects moves its goal (issue 31: the place above the
-    target scaled from the perceived boxes), zero for the demonstrated objects: up by how much higher the
-    hand holds the carried object above its bottom than the demonstration's hand held its object
+    target scaled from the perceived boxes): up by how much higher the hand holds the carried object above
+    its bottom than the demonstration's hand held its object
     (:attr:`~taskcond.execution.skills.Skill.hold_depth`; ``hand`` (3,) m, the hand now), so that the
-    object's bottom arrives at the demonstrated height; and for a target of another height than the
+    object's bottom arrives at the demonstrated height (for the demonstrated object itself only beyond
+    :data:`HOLD_TOLERANCE`: held lower by :func:`_grip_drop`); and for a target of another height than the
     demonstrated one (both standing on the same floor, the goal measured from the centre), up by half the
     difference of heights on top of or into it, down by it in front of it, where the object stays on the
     floor."""
@@ -819,8 +902,10 @@ def carry_shift(task: str, skill: Skill, obs: Observation, hand: np.ndarray) -> 
     parsed, demo = parse_task(task), parse_task(skill.task_name).objects
     primitive, objects = parsed.primitive.id, parsed.objects
     carried, target = objects[0], objects[-1]
-    if carried != demo[0] and carried in obs.boxes and skill.hold_depth is not None:
-        shift[2] += float(hand[2] - obs.boxes[carried][0][2]) - skill.hold_depth
+    if carried in obs.boxes and skill.hold_depth is not None:
+        held = float(hand[2] - obs.boxes[carried][0][2]) - skill.hold_depth
+        if carried != demo[0] or abs(held) > HOLD_TOLERANCE:
+            shift[2] += held
     shapes = perceived_shapes(obs, (target,))
     theirs = skill.shapes.get(demo[-1])
     if len(objects) == 2 and target != demo[-1] and target in shapes and theirs is not None:

@@ -180,6 +180,7 @@ class EventLog:
         choice: str = "",
         scale: np.ndarray | None = None,
         descent: bool = False,
+        over: float | None = None,
     ) -> None:
         """``turn``: rad the demonstration is turned about the target's vertical axis (a grasp from
         another side); ``aside``: (3,) m the place was moved from the demonstrated spot; each reported only
@@ -187,9 +188,11 @@ class EventLog:
         or None; ``choice``: why the skill was demonstrated on other objects (empty: on these);
         ``scale``: (3,) factors on its demonstrated offset from the target (reported when not ones);
         ``descent``: ``approach`` is a pre-grasp pose above the grasp point (a grasp) or a pose above the
-        place (a carry), from which the hand comes straight down, not the demonstrated start."""
+        place (a carry), from which the hand comes straight down, not the demonstrated start; ``over``: least
+        height (m, world z) of the hand carrying its object to ``approach`` over what stands on the way, or
+        None."""
         degrees = round(math.degrees(turn))
-        kind = ("pre-grasp", "pre-grasp pose") if parse_task(task).primitive.grasps else ("place", "place")
+        way = _approach_note(approach, descent, parse_task(task).primitive.grasps, over)
         moved = aside is not None and bool(np.any(aside))
         scaled = scale is not None and not np.allclose(scale, 1.0)
         self.emit(
@@ -207,24 +210,13 @@ class EventLog:
                 else ""
             )
             + (f", {fmt_vector(aside)} aside of the demonstrated spot (taken)" if moved else "")
-            + (
-                ""
-                if approach is None
-                else f", straight down from a {kind[1]} above it at {fmt_vector(approach)}"
-                if descent
-                else f", from its demonstrated start at {fmt_vector(approach)}"
-            ),
+            + way[0],
             {"skill": skill.task_id, "target": target_name, "target_center": json_vector(target)}
             | ({"demonstration": skill.task_name, "similar": choice} if choice else {})
             | ({"offset_scale": json_vector(scale)} if scaled else {})
             | ({"turn_degrees": degrees} if degrees else {})
             | ({"aside": json_vector(aside)} if moved else {})
-            | ({"approach": json_vector(approach)} if approach is not None else {})
-            | (
-                {"approach_kind": f"{kind[0]} above" if descent else "demonstrated start"}
-                if approach is not None
-                else {}
-            ),
+            | way[1],
         )
 
     def collision(
@@ -307,3 +299,26 @@ def json_vector(v: np.ndarray | None) -> list[float] | None:
 
 
 __all__ = ["Event", "EventLog", "fmt_items", "fmt_vector", "json_vector"]
+
+
+def _approach_note(
+    approach: np.ndarray | None, descent: bool, grasp: bool, over: float | None
+) -> tuple[str, dict[str, Any]]:
+    """The part of a primitive's event (:meth:`EventLog.primitive`) that says which approach the hand took:
+    text for the message and entries for its data (``approach``, ``approach_kind``, ``carried_over``)."""
+    if approach is None:
+        return "", {}
+    kind = ("pre-grasp", "pre-grasp pose") if grasp else ("place", "place")
+    text = (
+        f", straight down from a {kind[1]} above it at {fmt_vector(approach)}"
+        if descent
+        else f", from its demonstrated start at {fmt_vector(approach)}"
+    )
+    data: dict[str, Any] = {
+        "approach": json_vector(approach),
+        "approach_kind": f"{kind[0]} above" if descent else "demonstrated start",
+    }
+    if over is not None:
+        text += f", carried over what stands on the way at z >= {over:.3f} m"
+        data["carried_over"] = round(over, 4)
+    return text, data

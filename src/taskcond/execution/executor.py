@@ -276,7 +276,7 @@ class Executor(Approach):
             if attempt > 0 and primitive.grasps:
                 self._back_off(task, depth, "before trying again")
             self.satisfy(_part_way(cond, obs), (*stack, task), depth, deadline)
-            if depth > 0 and primitive.lets_go:
+            if primitive.lets_go:
                 self._set_down(task, depth)
             self.control(task, cond, depth, deadline, retry=attempt > 0)
             missing = _missing(cond.post_conditions, self.world.observe())
@@ -368,6 +368,7 @@ class Executor(Approach):
             aim.choice,
             aim.scale,
             aim.descent,
+            aim.over,
         )
         if aim.approach is not None:
             first = aim.skill.segments[0]
