@@ -315,9 +315,7 @@ class Approach:
         turn = 0.0 if aiming is None else self._demo_turn(aiming, grasp)
         aside = _grip_drop(aiming, turn) if descent and aiming is not None else np.zeros(3)
         if carry and target is not None and target_name is not None:
-            aside = carry_shift(task, skill, obs, here)
-            if parsed.primitive.places is Relation.INSIDE:
-                aside = aside + self._rim(skill, target_name, target + aside, obs, here)
+            aside = self._carry_aside(task, skill, target, obs, here)
         if parsed.primitive.places in PLACED and target is not None and target_name is not None:
             aside = aside + self._aside(skill, target_name, target + aside, obs, parsed.primitive.places)
         approach = target + aside + turned(skill.start_offset, turn) if far and target is not None else None
@@ -329,6 +327,18 @@ class Approach:
         placed = (task, skill, target_name, None if target is None else target + aside, turn, aside)
         hold = carry and self.hand.round_carry_holds and parsed.objects[0] in obs.round
         return Aim(*placed, way.approach, way.over, scale, choice.reason, way.descent, hold)
+
+    def _carry_aside(
+        self, task: str, skill: Skill, target: np.ndarray, obs: Observation, here: np.ndarray
+    ) -> np.ndarray:
+        """(3,) m by which a carry's place moves from the skill's goal at ``target`` (the target's centre,
+        (3,) m; the hand at ``here`` (3,) m): :func:`carry_shift`, and for a move into a vessel
+        :meth:`_rim`."""
+        shift = carry_shift(task, skill, obs, here)
+        parsed = parse_task(task)
+        if parsed.primitive.places is Relation.INSIDE:
+            shift = shift + self._rim(skill, parsed.objects[-1], target + shift, obs, here)
+        return shift
 
     def _rim(
         self, skill: Skill, container: str, target: np.ndarray, obs: Observation, here: np.ndarray
