@@ -22,6 +22,7 @@ from taskcond.decompose import (
     DecompositionError,
     parse_plan,
     with_object_names,
+    with_on_top,
     with_releases,
     without_carry_releases,
 )
@@ -485,6 +486,16 @@ def test_an_objects_other_name_is_replaced_by_its_name_before_the_llm_reads_it()
     assert with_object_names(text, objects, aliases) == (
         "Put the bowl in the top drawer, then the mug in the lunch box and the cupboard."
     )
+
+
+def test_on_after_a_verb_that_puts_is_read_as_on_top_of() -> None:
+    """Issue 31, item 5: "stack on" means on top of; "on top of" and "in front of" stay as they are."""
+    assert with_on_top("Stack the can on the cabinet.") == "Stack the can on top of the cabinet."
+    assert with_on_top("Lift the mug, set it onto the table, then drop the toothpaste into it.") == (
+        "Lift the mug, set it on top of the table, then drop the toothpaste into it."
+    )
+    for same in ("Put the bowl on top of the box.", "Set the bowl down in front of the cabinet.", "Open it."):
+        assert with_on_top(same) == same
 
 
 def _boxes(**boxes: tuple[tuple[float, ...], tuple[float, ...]]) -> Observation:

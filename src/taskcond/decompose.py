@@ -132,6 +132,20 @@ def with_object_names(instruction: str, objects: Sequence[str], aliases: Mapping
     return instruction
 
 
+PUT_ON = re.compile(
+    r"\b(?P<put>put|place|set|stack|stand|lay)\b(?P<what>[^,;.]*?)\s+on(?:to)?\s+(?!top\s+of\b)",
+    re.IGNORECASE,
+)
+"""A verb that puts something somewhere, its object, and "on" or "onto" not followed by "top of"."""
+
+
+def with_on_top(instruction: str) -> str:
+    """``instruction`` with "on" and "onto" after a verb that puts something (:data:`PUT_ON`) said as "on top
+    of", the vocabulary's one way of being on (issue 31, item 5: "stack the can on the cabinet" means on top
+    of it). The embedded model read "stack ... on" as ``move ... into``."""
+    return PUT_ON.sub(lambda m: f"{m['put']}{m['what']} on top of ", instruction)
+
+
 def decompose(
     instruction: str,
     backend: ChatBackend,
@@ -144,14 +158,14 @@ def decompose(
     """Ask the LLM for the primitive tasks of ``instruction`` in order (a release the instruction does not
     ask for after a carry dropped, :func:`without_carry_releases`; :func:`with_releases` added),
     the objects' ``aliases`` (alias → object name) replaced by their names first
-    (:func:`with_object_names`).
+    (:func:`with_object_names`), "on" said as "on top of" (:func:`with_on_top`).
 
     Raises:
         DecompositionError: no valid plan within ``1 + max_retries`` answers (the last error is given).
         LLMError: the backend failed.
     """
     patterns = "\n".join(f"  {p.pattern}" for p in PRIMITIVES.values())
-    text = with_object_names(" ".join(instruction.split()), objects, aliases or {})
+    text = with_on_top(with_object_names(" ".join(instruction.split()), objects, aliases or {}))
     prompt = load_prompt("decompose", version).substitute(
         patterns=patterns, objects=", ".join(objects), instruction=text
     )
@@ -181,6 +195,7 @@ __all__ = [
     "mentions",
     "parse_plan",
     "with_object_names",
+    "with_on_top",
     "with_releases",
     "without_carry_releases",
 ]

@@ -4,6 +4,7 @@ where marked)."""
 
 from __future__ import annotations
 
+import dataclasses
 import json
 
 import pybullet as p
@@ -14,8 +15,9 @@ from taskcond.application.demonstrations import learn_library
 from taskcond.cli import app
 from taskcond.combinations import Step, conflict, generate, goal_of_words
 from taskcond.conditions import parse_predicate
+from taskcond.decompose import with_object_names
 from taskcond.envs.kitchen import KitchenEnv
-from taskcond.sim.roles import scene_roles
+from taskcond.sim.roles import part_aliases, scene_roles
 from taskcond.tasks.free import FreeTask, fallen_objects
 
 pytestmark = pytest.mark.sim
@@ -165,3 +167,19 @@ def test_one_generated_task_runs_end_to_end(tmp_path, library_dir) -> None:
     assert record["task"] == "open-top_drawer" and record["goal"] == ["top drawer open"]
     assert record["instruction"] in ("Open the top drawer.", "Pull the top drawer open.")
     assert record["fallen"] == [] and record["success"] == (record["goal_missing"] == [])
+
+
+def test_a_part_said_alone_names_its_object_only_where_one_object_has_it() -> None:
+    """The microwave's door and the box's lid name their objects; "the door" only while no other object
+    has a door (issue 31, item 5: "its door" is the microwave's)."""
+    objects = scene_roles()
+    aliases = part_aliases(objects.values())
+    text = "Close the lid, open the microwave's door, then shut its door."
+    assert (
+        with_object_names(text, tuple(objects), aliases)
+        == "Close the box, open the microwave, then shut microwave."
+    )
+    second = dataclasses.replace(objects["box"], name="oven", part="door")
+    assert "door" not in part_aliases([objects["microwave"], second])
+    assert part_aliases([objects["microwave"], second])["oven's door"] == "oven"
+    assert not part_aliases([objects["top drawer"]])

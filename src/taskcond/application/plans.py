@@ -11,6 +11,7 @@ from typing import Any
 from taskcond.decompose import mentions
 from taskcond.llm.base import ChatBackend
 from taskcond.primitives import TaskNameError, parse_task
+from taskcond.sim.roles import part_aliases, scene_roles
 from taskcond.sim.scene import scene_aliases
 from taskcond.tasks.registry import UnknownTaskError, get_task, list_tasks
 from taskcond.worlds.kitchen import scene_objects
@@ -97,7 +98,9 @@ def llm_decomposer(
     an embedded model on ``threads`` CPU threads, None: every core), or with ``backend`` when given (a
     backend the caller built, e.g. its own LLM client or a model already loaded):
     an instruction that reads as one primitive task the scene cannot do is refused first
-    (:func:`refused_task`); ``announce`` is told the scene before the LLM is asked.
+    (:func:`refused_task`); ``announce`` is told the scene before the LLM is asked. The LLM reads the
+    objects' other names (:func:`~taskcond.sim.scene.scene_aliases`) and their parts ("the door": the
+    microwave, :func:`~taskcond.sim.roles.part_aliases`) as the objects' names.
 
     The decomposer raises DecompositionError (no valid plan, or refused) and LLMError."""
     from taskcond.decompose import DecompositionError, decompose
@@ -114,7 +117,8 @@ def llm_decomposer(
             announce(scene)
         if not backends:
             backends.append(make_backend(replace(LLMConfig.load(llm), threads=threads)))
-        return decompose(instruction, backends[0], objects, affords, aliases=scene_aliases())
+        aliases = scene_aliases() | part_aliases(o for o in scene_roles().values() if o.name in objects)
+        return decompose(instruction, backends[0], objects, affords, aliases=aliases)
 
     return decomposer
 

@@ -173,8 +173,22 @@ def scene_roles(config: SceneConfig | None = None) -> dict[str, SceneObject]:
     return out
 
 
+def part_aliases(objects: Iterable[SceneObject]) -> dict[str, str]:
+    """Words that name an object by the part that opens it (alias → the object's name; issue 31, item 5:
+    "its door" is the microwave's): "the microwave's door" and "the microwave door" for every object with a
+    part, and the part alone ("the door", "its door") where only one of ``objects`` has that part, so the
+    words have one meaning. A drawer is its own part: none."""
+    parts = [o for o in objects if o.part not in (None, "drawer")]
+    aliases: dict[str, str] = {}
+    for obj in parts:
+        aliases |= {f"{obj.name}'s {obj.part}": obj.name, f"{obj.name} {obj.part}": obj.name}
+        if sum(other.part == obj.part for other in parts) == 1:
+            aliases |= {f"its {obj.part}": obj.name, f"{obj.part}": obj.name}
+    return aliases
+
+
 def _inside(half: Vec3) -> Vec3:
     return (2 * half[0], 2 * half[1], 2 * half[2])
 
 
-__all__ = ["ObjectRoles", "SceneObject", "file_extents", "link_extents", "scene_roles"]
+__all__ = ["ObjectRoles", "SceneObject", "file_extents", "link_extents", "part_aliases", "scene_roles"]
