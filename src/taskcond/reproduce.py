@@ -281,8 +281,9 @@ def robosuite_table() -> TableSpec:
                 methods=methods,
                 notes={
                     "llm+demo": "the LLM's conditions grounded in the demonstration of each skill",
-                    "robomimic": "~100% Lift, ~100% Can (PickPlaceCan), ~84% Square (not supported here): "
-                    "the robomimic v0.1 model zoo's BC-RNN low-dim agents (Mandlekar et al., CoRL 2021), "
+                    "robomimic": "~100% Lift, ~100% Can (PickPlaceCan), ~84% Square (NutAssemblySquare): "
+                    "the robomimic v0.1 model zoo's BC-RNN low-dim agents (Mandlekar et al., CoRL 2021; "
+                    "robosuite's offline_study branch, not 1.5), "
                     "https://robomimic.github.io/docs/model_zoo/robomimic_v0.1.html",
                 },
             ),

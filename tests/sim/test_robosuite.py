@@ -16,6 +16,7 @@ from taskcond.application.robosuite import run_episode
 from taskcond.cli import app
 from taskcond.conditions import ContainerState, GripperState, Relation, SpatialRelation
 from taskcond.execution.skills import SkillLibrary, learn_skill
+from taskcond.reproduce import build_cells, robosuite_table
 from taskcond.worlds.robosuite.demos import record_demonstrations
 from taskcond.worlds.robosuite.scene import CLOSING, make_env, reset
 from taskcond.worlds.robosuite.tasks import TASKS, across, closing_axis, down, oracle
@@ -168,6 +169,16 @@ def test_condition_guided_lift_from_one_demonstration(tmp_path) -> None:  # type
     assert (cells["env"]["successes"], cells["env"]["trials"]) == (1, 1)  # seed 1000, as the episode above
     assert cells["llm"]["status"] == "not run" and cells["robomimic"]["paper"] == 100
     assert table["config"]["world"].startswith("robosuite ")
+
+
+def test_robomimics_published_figures_stand_beside_the_tasks_robomimic_has() -> None:
+    """robomimic's Lift, Can and Square are robosuite's Lift, PickPlaceCan and NutAssemblySquare: the
+    robomimic column of ``taskcond reproduce robosuite`` shows robomimic's figure on those rows only."""
+    spec = robosuite_table()
+    cells = build_cells(spec, [], 1)
+    shown = {r.key: cells[("robosuite", r.key, "robomimic")].paper for r in spec.blocks[0].rows}
+    published = {key: value for key, value in shown.items() if value is not None}
+    assert published == {"Lift": 100, "PickPlaceCan": 100, "NutAssemblySquare": 84}
 
 
 def test_milk_turned_a_quarter_turn_held_by_the_pads_below_its_gable_roof() -> None:
