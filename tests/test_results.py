@@ -4,12 +4,20 @@
 from __future__ import annotations
 
 import json
+import subprocess
 
 import pytest
 
 from taskcond.generator import PROMPT_VERSION
 from taskcond.reproduce import Cell, build_cells, paper_values, table_specs, trials_for, wilson_interval
-from taskcond.results import ConfigMismatchError, ResultsFile, RunConfig, code_version, llm_fields
+from taskcond.results import (
+    ConfigMismatchError,
+    ResultsFile,
+    RunConfig,
+    checkout_version,
+    code_version,
+    llm_fields,
+)
 
 
 def config(**changes) -> RunConfig:
@@ -26,6 +34,33 @@ def test_equal_configurations_have_equal_digests_and_differences_are_named() -> 
     ]
     assert config().to_dict()["llm_model_hash"] == "cc324af070c2ecbf"
     assert code_version()  # a git describe here, a package version elsewhere
+
+
+def test_the_code_version_changes_with_the_package_and_not_with_other_files(tmp_path) -> None:
+    """A commit of documentation alone keeps the version (a results file resumes across it); a change of
+    the package's files, committed or not, makes another."""
+
+    def git(*args: str) -> None:
+        subprocess.run(["git", "-C", str(tmp_path), *args], check=True, capture_output=True)
+
+    package = tmp_path / "pkg"
+    package.mkdir()
+    (package / "__init__.py").write_text("A = 1\n", encoding="utf-8")
+    git("init", "-q")
+    git("-c", "user.name=t", "-c", "user.email=t@t", "add", ".")
+    git("-c", "user.name=t", "-c", "user.email=t@t", "commit", "-qm", "package")
+    first = checkout_version(package)
+    assert first and "dirty" not in first
+    (tmp_path / "BENCHMARKS.md").write_text("figures\n", encoding="utf-8")
+    git("-c", "user.name=t", "-c", "user.email=t@t", "add", ".")
+    git("-c", "user.name=t", "-c", "user.email=t@t", "commit", "-qm", "docs")
+    assert checkout_version(package) == first
+    (package / "__init__.py").write_text("A = 2\n", encoding="utf-8")
+    dirty = checkout_version(package)
+    assert dirty is not None and dirty.startswith(f"{first}-dirty+")
+    git("-c", "user.name=t", "-c", "user.email=t@t", "commit", "-qam", "change")
+    assert checkout_version(package) not in (first, dirty)
+    assert checkout_version(tmp_path / "elsewhere") is None
 
 
 def test_a_results_file_holds_one_configuration(tmp_path) -> None:

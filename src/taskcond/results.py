@@ -123,10 +123,17 @@ def _diff(a: Any, b: Any, prefix: str = "") -> Iterator[tuple[str, Any, Any]]:
 
 @cache
 def code_version() -> str:
-    """The code that produced a result: ``git describe --always --dirty`` when this package's files are
-    tracked by a git checkout (with a hash of ``git diff HEAD`` of the package appended when dirty, so two
-    different uncommitted states differ), else ``taskcond <version>`` from the installed metadata."""
-    root = Path(__file__).resolve().parent
+    """The code that produced a result: the abbreviated hash of the last commit that changed this package's
+    files when they are tracked by a git checkout (a commit of documentation or benchmarks alone leaves it,
+    so a results file resumes across it), with ``-dirty+<hash of the package's uncommitted changes>``
+    appended when they differ from it (two different uncommitted states differ); else ``taskcond
+    <version>`` from the installed metadata."""
+    return checkout_version(Path(__file__).resolve().parent) or _installed_version()
+
+
+def checkout_version(root: Path) -> str | None:
+    """:func:`code_version` of the package directory ``root`` in a git checkout, or None when its files are
+    not tracked by one."""
 
     def git(*args: str) -> str | None:
         try:
@@ -138,14 +145,19 @@ def code_version() -> str:
         return out.stdout
 
     if git("ls-files", "--error-unmatch", "__init__.py") is not None:
-        described = (git("describe", "--always", "--dirty", "--tags") or "").strip()
+        described = (git("log", "-1", "--format=%h", "--", ".") or "").strip()
         if described:
-            if described.endswith("-dirty"):
+            changes = git("status", "--porcelain", "--", ".") or ""
+            if changes.strip():
                 diff = (git("diff", "HEAD", "--", ".") or "") + (
                     git("ls-files", "--others", "--exclude-standard", "--", ".") or ""
                 )
-                described += "+" + hashlib.sha256(diff.encode()).hexdigest()[:8]
+                described += "-dirty+" + hashlib.sha256(diff.encode()).hexdigest()[:8]
             return described
+    return None
+
+
+def _installed_version() -> str:
     try:
         return f"taskcond {metadata.version('taskcond')}"
     except metadata.PackageNotFoundError:
