@@ -95,6 +95,10 @@ def test_reproduce_writes_the_table_and_resumes(library_dir, tmp_path):
     assert again.exit_code == 0 and (out / "table4.jsonl").read_text() == before  # resumed: nothing run
     bad = runner.invoke(app, ["reproduce", "table9", "--out", str(out)])
     assert bad.exit_code == 2 and "use one of table2, table3, table4, all or robosuite" in bad.output
+    parallel = runner.invoke(app, ["reproduce", "robosuite", "--workers", "2", "--out", str(tmp_path / "rs")])
+    assert parallel.exit_code == 2
+    assert "--workers, --backend and --ray-address do not apply" in parallel.output
+    assert parallel.output.count("\n") == 1 and not (tmp_path / "rs").exists()
 
 
 @pytest.fixture

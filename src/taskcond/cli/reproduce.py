@@ -136,6 +136,12 @@ def reproduce(
 
     settings = ExecutionSettings(workers, noise, llm, skills, backend, ray_address, planner)
     if table == ROBOSUITE_TABLE:
+        if (workers or 1) > 1 or backend != "local" or ray_address is not None:
+            fail(
+                "robosuite's table runs its episodes in this process: --workers, --backend and "
+                "--ray-address do not apply to it (valid: --episodes, --row, --column, --noise, --llm, "
+                "--skills, --planner)"
+            )
         _reproduce_robosuite(out, episodes, row, column, settings)
         return
     _sim_import()
