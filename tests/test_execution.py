@@ -24,6 +24,7 @@ from taskcond.decompose import (
     with_object_names,
     with_on_top,
     with_releases,
+    with_tilt,
     without_carry_releases,
 )
 from taskcond.dmp import rollout
@@ -477,6 +478,13 @@ def test_a_container_left_part_way_is_not_opened_again_before_closing_it_again()
     assert _part_way(cond, part_way).pre_conditions == (GripperState(None),)
     still_open = Observation(frozenset({GripperState(None), ContainerState("top drawer", True)}), {}, ())
     assert _part_way(cond, still_open) is cond
+
+
+def test_pour_is_read_as_tilt() -> None:
+    """Issue 31, item 5: the vocabulary pours a vessel by tilting it; other words stay."""
+    assert with_tilt("Pour the bowl.") == "Tilt the bowl."
+    assert with_tilt("Pick up the mug and pour it.") == "Pick up the mug and tilt it."
+    assert with_tilt("Put the spoon in the pouring jug.") == "Put the spoon in the pouring jug."
 
 
 def test_an_objects_other_name_is_replaced_by_its_name_before_the_llm_reads_it() -> None:

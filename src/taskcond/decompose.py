@@ -146,6 +146,16 @@ def with_on_top(instruction: str) -> str:
     return PUT_ON.sub(lambda m: f"{m['put']}{m['what']} on top of ", instruction)
 
 
+POUR = re.compile(r"\b(p)our\b", re.IGNORECASE)
+"""The verb pour, whole word, any case."""
+
+
+def with_tilt(instruction: str) -> str:
+    """``instruction`` with "pour" said as "tilt", the vocabulary's primitive that pours a vessel (issue
+    31, item 5). The embedded model read "pour the bowl" as a move of the bowl into a container."""
+    return POUR.sub(lambda m: "Tilt" if m[1] == "P" else "tilt", instruction)
+
+
 def decompose(
     instruction: str,
     backend: ChatBackend,
@@ -158,14 +168,15 @@ def decompose(
     """Ask the LLM for the primitive tasks of ``instruction`` in order (a release the instruction does not
     ask for after a carry dropped, :func:`without_carry_releases`; :func:`with_releases` added),
     the objects' ``aliases`` (alias → object name) replaced by their names first
-    (:func:`with_object_names`), "on" said as "on top of" (:func:`with_on_top`).
+    (:func:`with_object_names`), "on" said as "on top of" (:func:`with_on_top`) and "pour" as "tilt"
+    (:func:`with_tilt`).
 
     Raises:
         DecompositionError: no valid plan within ``1 + max_retries`` answers (the last error is given).
         LLMError: the backend failed.
     """
     patterns = "\n".join(f"  {p.pattern}" for p in PRIMITIVES.values())
-    text = with_on_top(with_object_names(" ".join(instruction.split()), objects, aliases or {}))
+    text = with_tilt(with_on_top(with_object_names(" ".join(instruction.split()), objects, aliases or {})))
     prompt = load_prompt("decompose", version).substitute(
         patterns=patterns, objects=", ".join(objects), instruction=text
     )
@@ -197,5 +208,6 @@ __all__ = [
     "with_object_names",
     "with_on_top",
     "with_releases",
+    "with_tilt",
     "without_carry_releases",
 ]
