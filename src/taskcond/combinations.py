@@ -43,7 +43,7 @@ from taskcond.conditions import ConditionError, GripperState, Predicate, contrad
 from taskcond.instructions import Instruction
 from taskcond.primitives import PRIMITIVES
 from taskcond.relations import THRESHOLDS
-from taskcond.sim.roles import SceneObject
+from taskcond.sim.roles import SceneObject, part_aliases
 from taskcond.sim.scene import TABLE
 
 FORMAT_VERSION = 1
@@ -383,7 +383,7 @@ def _clause(template: str, step: Step, objects: dict[str, SceneObject]) -> str |
     of a drawer; ``{the_part}`` where more than one object has that part)."""
     a = objects[step.subject]
     part = a.part if a.part is not None and a.part != "drawer" else None
-    unique = part is not None and sum(o.part == part for o in objects.values()) == 1
+    unique = part is not None and part_aliases(objects.values()).get(part) == a.name
     values = {
         "a": step.subject,
         "b": step.target,
