@@ -4,6 +4,7 @@ LLM's decomposition (:class:`RunPlan`, :func:`plan_run`).
 
 from __future__ import annotations
 
+import re
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass, replace
 from typing import Any
@@ -103,21 +104,21 @@ def llm_decomposer(
     microwave, :func:`~taskcond.sim.roles.part_aliases`) as the objects' names.
 
     The decomposer raises DecompositionError (no valid plan, or refused) and LLMError."""
-    from taskcond.decompose import DecompositionError, decompose
+    from taskcond.decompose import DecompositionError, decompose, with_object_names
     from taskcond.llm.config import LLMConfig, make_backend
 
     backends: list[Any] = [] if backend is None else [backend]
 
     def decomposer(instruction: str, scene: str) -> list[str]:
         objects, affords = scene_objects(scene)
-        refused = refused_task(instruction, objects, affords)
+        aliases = scene_aliases() | part_aliases(o for o in scene_roles().values() if o.name in objects)
+        refused = refused_task(with_object_names(instruction, objects, aliases), objects, affords)
         if refused is not None:
             raise DecompositionError(f"{refused}; nothing was run")
         if announce is not None:
             announce(scene)
         if not backends:
             backends.append(make_backend(replace(LLMConfig.load(llm), threads=threads)))
-        aliases = scene_aliases() | part_aliases(o for o in scene_roles().values() if o.name in objects)
         return decompose(instruction, backends[0], objects, affords, aliases=aliases)
 
     return decomposer
@@ -138,18 +139,31 @@ def instruction_plan(text: str, decomposer: Callable[[str, str], list[str]]) -> 
     return RunPlan(text, None, tuple(decomposer(text, scene)), decomposed=True, scene=scene)
 
 
+CLAUSE_BREAK = re.compile(
+    r"\s*(?:[,;.!?]|\band after that\b|\band then\b|\bthen\b|\band\b)\s*", re.IGNORECASE
+)
+"""Where an instruction's clauses meet: punctuation and the words that join them."""
+
+
 def refused_task(
     instruction: str, objects: Iterable[str], affords: Callable[[str, tuple[str, ...]], str | None]
 ) -> str | None:
-    """Why an instruction that reads as one primitive task on objects of the scene cannot be done there
-    (``put the box into the bottle``: the box cannot be picked up), or None. Asked before the LLM
-    decomposes it, which would otherwise answer a different task (the bottle into the box). An
-    instruction naming an object the scene lacks is left to the LLM (it may be a misspelling)."""
-    try:
-        task = parse_task(instruction.strip().rstrip(".!?"))
-    except TaskNameError:
-        return None
-    if not set(task.objects) <= set(objects):
-        return None
-    reason = affords(task.primitive.id, task.objects)
-    return None if reason is None else f"cannot {task.name!r}: {reason}"
+    """Why an instruction that reads as one primitive task on objects of the scene, or has a clause that
+    does, cannot be done there (``put the box into the bottle``: the box cannot be picked up; "put the mug
+    in the microwave and close it": the hand cannot enter the microwave), or None. Asked before the LLM
+    decomposes it, which would otherwise answer a different task (the bottle into the box; told that the
+    mug cannot go into the microwave, the mug on the table, and the run would meet the goal of that plan).
+    An instruction naming an object the scene lacks is left to the LLM (it may be a misspelling)."""
+    names = set(objects)
+    clauses = [instruction.strip().rstrip(".!?"), *CLAUSE_BREAK.split(instruction)]
+    for clause in filter(None, (c.strip() for c in clauses)):
+        try:
+            task = parse_task(clause)
+        except TaskNameError:
+            continue
+        if not set(task.objects) <= names:
+            continue
+        reason = affords(task.primitive.id, task.objects)
+        if reason is not None:
+            return f"cannot {task.name!r}: {reason}"
+    return None
