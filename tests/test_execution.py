@@ -292,7 +292,8 @@ def test_a_moved_object_is_released_after_its_last_move_unless_a_later_step_hand
 
 def test_a_release_after_a_carry_is_dropped_unless_the_instruction_asks_to_let_go() -> None:
     """The model adds ``release bowl`` after ``move bowl to position`` by the prompt's rule; a carry leaves
-    the bowl held unless the words ask for it to be let go. Releases after places stay."""
+    the bowl held unless the words ask for it to be let go. Releases after places stay. So does a grasp
+    (the model added ``release can`` after "grasp the can"), unless the words put it down."""
     plan = ["grasp bowl", "move bowl to position", "release bowl"]
     held = without_carry_releases(plan, "Pick up the bowl and move it to the target position.")
     assert held == ["grasp bowl", "move bowl to position"]
@@ -302,6 +303,10 @@ def test_a_release_after_a_carry_is_dropped_unless_the_instruction_asks_to_let_g
     assert without_carry_releases(placed, "Move the mug onto the box.") == placed
     other = ["grasp bowl", "move bowl to position", "release mug"]
     assert without_carry_releases(other, "Move the bowl to the target position.") == other
+    grasped = ["grasp mug", "move mug on top of box", "release mug", "grasp can", "release can"]
+    said = "Stack the mug on the box and grasp the can."
+    assert without_carry_releases(grasped, said) == grasped[:-1]
+    assert without_carry_releases(grasped, "Stack the mug on the box, pick up the can and drop it.") == grasped
 
 
 def test_parse_plan_accepts_numbered_lines_and_rejects_unknown_objects() -> None:

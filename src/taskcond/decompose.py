@@ -85,6 +85,8 @@ def with_releases(tasks: Sequence[str]) -> list[str]:
 
 LET_GO = ("release", "let go", "drop", "put down", "set down", "place", "put it", "leave")
 """Words by which an instruction asks for what it holds to be let go of."""
+PUT_DOWN = ("release", "let go", "drop", "put down", "set down", "put it down", "set it down", "put it back")
+"""Words by which an instruction asks for what it has just picked up to be let go of where it is."""
 
 
 def mentions(instruction: str, words: Sequence[str]) -> bool:
@@ -96,17 +98,22 @@ def mentions(instruction: str, words: Sequence[str]) -> bool:
 
 def without_carry_releases(tasks: Sequence[str], instruction: str) -> list[str]:
     """``tasks`` without a ``release A`` that directly follows ``move A to position`` when ``instruction``
-    has none of the :data:`LET_GO` words: a move to a position is a carry that leaves the object held
-    (:attr:`~taskcond.primitives.Primitive.to_position`), and a small model adds the release by the prompt's
-    rule "release it after"."""
-    if mentions(instruction, LET_GO):
-        return list(tasks)
+    has none of the :data:`LET_GO` words, or ``grasp A`` when it has none of the :data:`PUT_DOWN` words:
+    a move to a position is a carry that leaves the object held
+    (:attr:`~taskcond.primitives.Primitive.to_position`), a grasp leaves it held, and a small model adds the
+    release by the prompt's rule "release it after" ("Stack the mug on the box and grasp the can." →
+    ``..., grasp can, release can``)."""
+    keep_after_carry, keep_after_grasp = mentions(instruction, LET_GO), mentions(instruction, PUT_DOWN)
     plan: list[str] = []
     last = None  # the last task kept, parsed
     for name in tasks:
         task = parse_task(name)
-        carried = last is not None and last.primitive.to_position and last.objects[:1] == task.objects[:1]
-        if not (task.primitive.lets_go and carried):
+        same = last is not None and last.objects[:1] == task.objects[:1]
+        held = same and (
+            (last.primitive.to_position and not keep_after_carry)
+            or (last.primitive.grasps and not keep_after_grasp)
+        )
+        if not (task.primitive.lets_go and held):
             plan.append(name)
             last = task
     return plan
