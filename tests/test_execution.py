@@ -20,7 +20,9 @@ from taskcond.conditions import (
 )
 from taskcond.decompose import (
     DecompositionError,
+    contradiction,
     parse_plan,
+    said_tasks,
     with_object_names,
     with_on_top,
     with_releases,
@@ -306,7 +308,9 @@ def test_a_release_after_a_carry_is_dropped_unless_the_instruction_asks_to_let_g
     grasped = ["grasp mug", "move mug on top of box", "release mug", "grasp can", "release can"]
     said = "Stack the mug on the box and grasp the can."
     assert without_carry_releases(grasped, said) == grasped[:-1]
-    assert without_carry_releases(grasped, "Stack the mug on the box, pick up the can and drop it.") == grasped
+    assert (
+        without_carry_releases(grasped, "Stack the mug on the box, pick up the can and drop it.") == grasped
+    )
 
 
 def test_parse_plan_accepts_numbered_lines_and_rejects_unknown_objects() -> None:
@@ -521,6 +525,34 @@ def test_an_answer_that_keeps_the_words_verb_stack_or_set_is_a_move_on_top() -> 
         "move cube on top of box",
         "move can on top of cabinet",
     ]
+
+
+def test_a_plan_that_contradicts_what_its_clauses_say_is_asked_again() -> None:
+    """Issue 31, item 5: each clause that reads as a primitive task ("it": the previous clause's object)
+    must be in the plan, and where every clause does, the plan adds only grasps, releases, opens and
+    closes; the small model answered "stack the cube on the box" with ``move cube into box`` and "pick up
+    the toothpaste" with ``grasp toothpaste``, ``move toothpaste into bowl``."""
+    objects = ["cube", "box", "bowl", "toothpaste", "top drawer", "bottom drawer", "can", "microwave"]
+    said = said_tasks(
+        "Close the top drawer, then put the bowl into the bottom drawer, then pick it up.", objects
+    )
+    assert said == ["close top drawer", "move bowl into bottom drawer", "grasp bowl"]
+    right = [
+        "close top drawer",
+        "open bottom drawer",
+        "grasp bowl",
+        "move bowl into bottom drawer",
+        "release bowl",
+    ]
+    assert contradiction([*right, "grasp bowl"], said) is None
+    assert "does not say 'move bowl into box'" in contradiction(
+        [*right, "grasp bowl", "move bowl into box"], said
+    )
+    stacked = said_tasks("Stack the cube on top of the box.", objects)
+    assert "says 'move cube on top of box'" in contradiction(["grasp cube", "move cube into box"], stacked)
+    loose = said_tasks("Push the top drawer shut and grasp the can.", objects)
+    assert loose == [None, "grasp can"]
+    assert contradiction(["close top drawer", "move cube into box", "grasp can"], loose) is None
 
 
 def _boxes(**boxes: tuple[tuple[float, ...], tuple[float, ...]]) -> Observation:

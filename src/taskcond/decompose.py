@@ -65,6 +65,51 @@ def parse_plan(
     return tasks
 
 
+CLAUSE_BREAK = re.compile(
+    r"\s*(?:[,;.!?]|\band after that\b|\band then\b|\bthen\b|\band\b)\s*", re.IGNORECASE
+)
+"""Where an instruction's clauses meet: punctuation and the words that join them."""
+SETTING_UP = ("grasp", "release", "open", "close")
+"""Primitives a plan may add to what its words say: the grasps, releases, opens and closes that other steps
+need (the prompt's rule "grasp an object before moving it, release it after")."""
+
+
+def said_tasks(instruction: str, objects: Sequence[str]) -> list[str | None]:
+    """The primitive task each clause of ``instruction`` (split at :data:`CLAUSE_BREAK`) reads as on
+    objects of the scene (:func:`~taskcond.primitives.parse_task`; "it" is the previous clause's first
+    object: "pick up the mug and tilt it"), None for a clause that reads as none."""
+    out: list[str | None] = []
+    previous: str | None = None
+    for clause in filter(None, (c.strip() for c in CLAUSE_BREAK.split(instruction))):
+        if previous is not None:
+            clause = re.sub(r"\bit\b", f"the {previous}", clause)
+        try:
+            task = parse_task(clause)
+        except TaskNameError:
+            out.append(None)
+            continue
+        known = set(task.objects) <= set(objects)
+        out.append(task.name if known else None)
+        previous = task.objects[0] if known and task.objects else previous
+    return out
+
+
+def contradiction(plan: Sequence[str], said: Sequence[str | None]) -> str | None:
+    """How ``plan`` (canonical task names) contradicts the tasks its instruction's clauses say
+    (:func:`said_tasks`), or None: a said task missing from the plan, or, when every clause says a task, a
+    step that is none of them and no :data:`SETTING_UP` step ("pick up the toothpaste" answered ``grasp
+    toothpaste``, ``move toothpaste into bowl``). Asked of each answer, like the scene's refusals, so that
+    the LLM answers again (Stack the cube on the box" answered ``move cube into box``)."""
+    for task in filter(None, said):
+        if task not in plan:
+            return f"the instruction says {task!r}, and the answer does not"
+    if said and all(said):
+        extra = [t for t in plan if t not in said and parse_task(t).primitive.id not in SETTING_UP]
+        if extra:
+            return f"the instruction does not say {extra[0]!r}"
+    return None
+
+
 def with_releases(tasks: Sequence[str]) -> list[str]:
     """``tasks`` (canonical primitive task names) with ``release A`` right after the last move of each A to a
     place (:attr:`~taskcond.primitives.Primitive.places`) that no later task releases, moves, tilts or
@@ -196,7 +241,11 @@ def decompose(
             )
         )
         try:
-            return with_releases(without_carry_releases(parse_plan(response.text, objects, affords), text))
+            plan = with_releases(without_carry_releases(parse_plan(response.text, objects, affords), text))
+            wrong = contradiction(plan, said_tasks(text, objects))
+            if wrong is not None:
+                raise DecompositionError(wrong)
+            return plan
         except DecompositionError as exc:
             error = str(exc)
             messages += [
@@ -207,11 +256,14 @@ def decompose(
 
 
 __all__ = [
+    "CLAUSE_BREAK",
     "DecompositionError",
     "LLMError",
+    "contradiction",
     "decompose",
     "mentions",
     "parse_plan",
+    "said_tasks",
     "with_object_names",
     "with_on_top",
     "with_releases",

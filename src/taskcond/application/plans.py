@@ -4,12 +4,11 @@ LLM's decomposition (:class:`RunPlan`, :func:`plan_run`).
 
 from __future__ import annotations
 
-import re
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass, replace
 from typing import Any
 
-from taskcond.decompose import mentions
+from taskcond.decompose import CLAUSE_BREAK, mentions
 from taskcond.llm.base import ChatBackend
 from taskcond.primitives import TaskNameError, parse_task
 from taskcond.sim.roles import part_aliases, scene_roles
@@ -137,12 +136,6 @@ def instruction_plan(text: str, decomposer: Callable[[str, str], list[str]]) -> 
         raise ValueError("empty instruction")
     scene = instruction_scene(text)
     return RunPlan(text, None, tuple(decomposer(text, scene)), decomposed=True, scene=scene)
-
-
-CLAUSE_BREAK = re.compile(
-    r"\s*(?:[,;.!?]|\band after that\b|\band then\b|\bthen\b|\band\b)\s*", re.IGNORECASE
-)
-"""Where an instruction's clauses meet: punctuation and the words that join them."""
 
 
 def refused_task(
