@@ -4,6 +4,8 @@ task and each of the wordings its first ``--episodes`` seeds say (seed 1000 + k 
 the goal that plan derives (:func:`taskcond.execution.planner.goal_of`) includes the template's goal: a
 plan that says something else ("grasp can, release can" for "grasp the can", "move bowl into box" for
 "stack the bowl on the box") cannot meet the goal an episode is judged by, whatever the skills do.
+The plan is judged as the LLM gave it, before the planner's repair: ``tilt X`` alone (the grasp left to
+the planner, which inserts it in an episode) misses ``gripper grasping X`` here.
 Run: ``.venv/bin/python benchmarks/bench_plans.py [--episodes 3]``; prints the wrong plans and the totals
 per primitive (a sequence's row is its length).
 """
