@@ -110,6 +110,11 @@ def contradiction(plan: Sequence[str], said: Sequence[str | None]) -> str | None
     return None
 
 
+def _refused(task: str, affords: Callable[[str, tuple[str, ...]], str | None]) -> bool:
+    parsed = parse_task(task)
+    return affords(parsed.primitive.id, parsed.objects) is not None
+
+
 def with_releases(tasks: Sequence[str]) -> list[str]:
     """``tasks`` (canonical primitive task names) with ``release A`` right after the last move of each A to a
     place (:attr:`~taskcond.primitives.Primitive.places`) that no later task releases, moves, tilts or
@@ -216,12 +221,15 @@ def decompose(
     max_retries: int = 2,
     version: str = "v1",
     aliases: Mapping[str, str] | None = None,
+    tell: Callable[[str], None] | None = None,
 ) -> list[str]:
     """Ask the LLM for the primitive tasks of ``instruction`` in order (a release the instruction does not
     ask for after a carry dropped, :func:`without_carry_releases`; :func:`with_releases` added),
     the objects' ``aliases`` (alias → object name) replaced by their names first
     (:func:`with_object_names`), "on" said as "on top of" (:func:`with_on_top`) and "pour" as "tilt"
-    (:func:`with_tilt`).
+    (:func:`with_tilt`). Each answer must also say what the instruction's clauses say
+    (:func:`contradiction`); when no answer does and every clause reads as a primitive task, the plan is
+    those tasks (releases added, the grasps and opens left to the planner), and ``tell`` is told so.
 
     Raises:
         DecompositionError: no valid plan within ``1 + max_retries`` answers (the last error is given).
@@ -234,6 +242,7 @@ def decompose(
     )
     messages = [ChatMessage("user", prompt)]
     error = ""
+    said = said_tasks(text, objects)
     for _ in range(max_retries + 1):
         response = backend.chat(
             ChatRequest(
@@ -242,7 +251,7 @@ def decompose(
         )
         try:
             plan = with_releases(without_carry_releases(parse_plan(response.text, objects, affords), text))
-            wrong = contradiction(plan, said_tasks(text, objects))
+            wrong = contradiction(plan, said)
             if wrong is not None:
                 raise DecompositionError(wrong)
             return plan
@@ -252,6 +261,11 @@ def decompose(
                 ChatMessage("assistant", response.text),
                 ChatMessage("user", f"That answer is not valid: {error}. Answer again, one task per line."),
             ]
+    refused = [t for t in said if t is not None and affords is not None and _refused(t, affords)]
+    if said and all(said) and not refused and len(said) <= MAX_STEPS:
+        if tell is not None:
+            tell(f"the LLM's answers contradict the instruction's words ({error}); the plan is what they say")
+        return with_releases([t for t in said if t is not None])
     raise DecompositionError(f"no valid plan for {instruction!r}: {error}")
 
 

@@ -93,14 +93,17 @@ def llm_decomposer(
     announce: Callable[[str], None] | None = None,
     threads: int | None = None,
     backend: ChatBackend | None = None,
+    tell: Callable[[str], None] | None = None,
 ) -> Callable[[str, str], list[str]]:
     """The ``decomposer`` of :func:`plan_run` with the LLM of ``llm`` (the ``--llm`` spec; answers cached;
     an embedded model on ``threads`` CPU threads, None: every core), or with ``backend`` when given (a
     backend the caller built, e.g. its own LLM client or a model already loaded):
     an instruction that reads as one primitive task the scene cannot do is refused first
-    (:func:`refused_task`); ``announce`` is told the scene before the LLM is asked. The LLM reads the
-    objects' other names (:func:`~taskcond.sim.scene.scene_aliases`) and their parts ("the door": the
-    microwave, :func:`~taskcond.sim.roles.part_aliases`) as the objects' names.
+    (:func:`refused_task`); ``announce`` is told the scene before the LLM is asked, ``tell`` when the plan
+    is read from the instruction's words instead of the LLM's answers
+    (:func:`~taskcond.decompose.decompose`). The LLM reads the objects' other names
+    (:func:`~taskcond.sim.scene.scene_aliases`) and their parts ("the door": the microwave,
+    :func:`~taskcond.sim.roles.part_aliases`) as the objects' names.
 
     The decomposer raises DecompositionError (no valid plan, or refused) and LLMError."""
     from taskcond.decompose import DecompositionError, decompose, with_object_names
@@ -118,7 +121,7 @@ def llm_decomposer(
             announce(scene)
         if not backends:
             backends.append(make_backend(replace(LLMConfig.load(llm), threads=threads)))
-        return decompose(instruction, backends[0], objects, affords, aliases=aliases)
+        return decompose(instruction, backends[0], objects, affords, aliases=aliases, tell=tell)
 
     return decomposer
 
