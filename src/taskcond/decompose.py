@@ -6,7 +6,9 @@ The prompt (``prompts/<version>/decompose.txt``) lists the primitive task forms 
 tasks as examples. Every answer line must parse as a primitive task (:func:`taskcond.primitives.parse_task`)
 on objects of the scene; an invalid answer is shown its error and asked again, a bounded number of times.
 The prompt's rule "grasp an object before moving it, release it after" is then enforced on the release
-(:func:`with_releases`): a small model often ends "put the mug on the box" holding the mug.
+(:func:`with_releases`): a small model often ends "put the mug on the box" holding the mug. An answer must
+also say what the instruction's clauses say where they read as primitive tasks (:func:`said_tasks`,
+:func:`contradiction`); when no answer does and every clause reads as one, the plan is what they say.
 """
 
 from __future__ import annotations
@@ -99,7 +101,7 @@ def contradiction(plan: Sequence[str], said: Sequence[str | None]) -> str | None
     (:func:`said_tasks`), or None: a said task missing from the plan, or, when every clause says a task, a
     step that is none of them and no :data:`SETTING_UP` step ("pick up the toothpaste" answered ``grasp
     toothpaste``, ``move toothpaste into bowl``). Asked of each answer, like the scene's refusals, so that
-    the LLM answers again (Stack the cube on the box" answered ``move cube into box``)."""
+    the LLM answers again ("Stack the cube on the box" was answered ``move cube into box``)."""
     for task in filter(None, said):
         if task not in plan:
             return f"the instruction says {task!r}, and the answer does not"
