@@ -25,6 +25,7 @@ from taskcond.decompose import (
     said_tasks,
     with_object_names,
     with_on_top,
+    with_open_close,
     with_releases,
     with_tilt,
     without_carry_releases,
@@ -550,7 +551,11 @@ def test_a_plan_that_contradicts_what_its_clauses_say_is_asked_again() -> None:
     )
     stacked = said_tasks("Stack the cube on top of the box.", objects)
     assert "says 'move cube on top of box'" in contradiction(["grasp cube", "move cube into box"], stacked)
-    assert said_tasks("Push the top drawer shut.", objects) == ["close top drawer"]
+    assert said_tasks(with_open_close("Push the top drawer shut."), objects) == ["close top drawer"]
+    assert (
+        with_open_close("Pull the bottom drawer open, then push it shut.")
+        == "Open the bottom drawer, then close it."
+    )
     loose = said_tasks("Tidy up the top drawer and grasp the can.", objects)
     assert loose == [None, "grasp can"]
     assert contradiction(["close top drawer", "move cube into box", "grasp can"], loose) is None

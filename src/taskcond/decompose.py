@@ -215,6 +215,22 @@ def with_tilt(instruction: str) -> str:
     return POUR.sub(lambda m: "Tilt" if m[1] == "P" else "tilt", instruction)
 
 
+PUSH_SHUT = re.compile(r"\b(?P<verb>push|pull)\s+(?P<what>[^,;.!?]+?)\s+(?P<how>shut|closed|open)\b", re.I)
+"""A drawer, lid or door pushed shut or pulled open: "push the top drawer shut"."""
+
+
+def with_open_close(instruction: str) -> str:
+    """``instruction`` with "push X shut" said as "close X" and "pull X open" as "open X", the vocabulary's
+    verbs (issue 31, item 5): the embedded model answered "push the top drawer shut" with ``open top
+    drawer``. The verbs stay free for a primitive a user declares (``push A in front of B``)."""
+
+    def said(m: re.Match[str]) -> str:
+        verb = "open" if m["how"].lower() == "open" else "close"
+        return f"{verb.title() if m['verb'][0].isupper() else verb} {m['what']}"
+
+    return PUSH_SHUT.sub(said, instruction)
+
+
 def decompose(
     instruction: str,
     backend: ChatBackend,
@@ -228,17 +244,19 @@ def decompose(
     """Ask the LLM for the primitive tasks of ``instruction`` in order (a release the instruction does not
     ask for after a carry dropped, :func:`without_carry_releases`; :func:`with_releases` added),
     the objects' ``aliases`` (alias → object name) replaced by their names first
-    (:func:`with_object_names`), "on" said as "on top of" (:func:`with_on_top`) and "pour" as "tilt"
-    (:func:`with_tilt`). Each answer must also say what the instruction's clauses say
-    (:func:`contradiction`); when no answer does and every clause reads as a primitive task, the plan is
-    those tasks (releases added, the grasps and opens left to the planner), and ``tell`` is told so.
+    (:func:`with_object_names`), "on" said as "on top of" (:func:`with_on_top`), "pour" as "tilt"
+    (:func:`with_tilt`), "push X shut" as "close X" (:func:`with_open_close`). Each answer must also say
+    what the instruction's clauses say (:func:`contradiction`); when no answer does and every clause reads
+    as a primitive task, the plan is those tasks (releases added, the grasps and opens left to the
+    planner), and ``tell`` is told so.
 
     Raises:
         DecompositionError: no valid plan within ``1 + max_retries`` answers (the last error is given).
         LLMError: the backend failed.
     """
     patterns = "\n".join(f"  {p.pattern}" for p in PRIMITIVES.values())
-    text = with_tilt(with_on_top(with_object_names(" ".join(instruction.split()), objects, aliases or {})))
+    named = with_object_names(" ".join(instruction.split()), objects, aliases or {})
+    text = with_open_close(with_tilt(with_on_top(named)))
     prompt = load_prompt("decompose", version).substitute(
         patterns=patterns, objects=", ".join(objects), instruction=text
     )
@@ -282,6 +300,7 @@ __all__ = [
     "said_tasks",
     "with_object_names",
     "with_on_top",
+    "with_open_close",
     "with_releases",
     "with_tilt",
     "without_carry_releases",
