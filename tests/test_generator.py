@@ -518,3 +518,25 @@ def test_embedded_drafts_keep_the_greedy_answer(embedded_backend, monkeypatch):
         )
         embedded_backend.forget()
         assert with_drafts.text == reference["choices"][0]["message"]["content"]
+
+
+@pytest.mark.llm
+def test_a_plan_the_answers_keep_contradicting_is_what_the_words_say(embedded_backend):
+    """Every answer says ``move cube into box`` for "stack the cube on the box, then close the top drawer":
+    each is shown its contradiction and asked again; after the last, every clause reading as a primitive
+    task, the plan is what the clauses say (releases added) and the caller is told. With a clause that
+    reads as no task, there is no such plan: the error names the contradiction."""
+    from taskcond.decompose import DecompositionError, decompose
+
+    wrong = "grasp cube\nmove cube into box\nrelease cube\nclose top drawer\n"
+    spoiled = Spoiled(embedded_backend, wrong, spoil=lambda k: True)
+    objects = ["cube", "box", "top drawer"]
+    told: list[str] = []
+    plan = decompose(
+        "Stack the cube on the box, then close the top drawer.", spoiled, objects, tell=told.append
+    )
+    assert plan == ["move cube on top of box", "release cube", "close top drawer"]
+    assert len(spoiled.requests) == 3 and "says 'move cube on top of box'" in told[0]
+    assert "says 'move cube on top of box'" in spoiled.requests[1].messages[-1].content
+    with pytest.raises(DecompositionError, match="says 'move cube on top of box'"):
+        decompose("Stack the cube on the box, then tidy up.", spoiled, objects)

@@ -8,12 +8,13 @@ What is generated, for the objects of the scene:
 
 * ``grasp A`` for each graspable A; ``tilt A`` for each graspable vessel;
 * ``open C`` and ``close C`` for each container with a lid, door or drawer;
-* ``move A into C`` for each movable A and container C it fits (:func:`fits_into`), ``move A on top of S``
+* ``move A into C`` for each movable A and container C it fits (:func:`~taskcond.sim.roles.fits_into`) and
+  the hand can enter (:func:`~taskcond.sim.roles.hand_enters`), ``move A on top of S``
   for each surface S its footprint fits on (:func:`fits_on`), ``move A in front of F`` for each fixed object
   F (not the table, not a drawer);
 * sequences of two and three of these that are consistent (:func:`conflict`): a seeded sample, drawn
-  uniformly among the consistent ones, of the sizes the templates file gives (the kitchen has about 4,600
-  consistent sequences of two and 150,000 of three; all of them would be days of episodes).
+  uniformly among the consistent ones, of the sizes the templates file gives (the kitchen has 3,888
+  consistent sequences of two and 117,054 of three; all of them would be days of episodes).
 
 A pairing that cannot work is refused with its reason (:class:`Refusal`: ``move bowl into mug``: the bowl
 is wider than the mug's inside), listed and never run. The goal of a task is its template's goal; a
@@ -42,14 +43,11 @@ import numpy as np
 from taskcond.conditions import ConditionError, GripperState, Predicate, contradictions, parse_predicate
 from taskcond.instructions import Instruction
 from taskcond.primitives import PRIMITIVES
-from taskcond.relations import THRESHOLDS
-from taskcond.sim.roles import SceneObject, part_aliases
+from taskcond.sim.roles import SceneObject, fits_into, hand_enters, part_aliases
 from taskcond.sim.scene import TABLE
 
 FORMAT_VERSION = 1
 """The ``version`` a templates file declares."""
-CLEARANCE = 0.005
-"""Least gap (m) on each side between an object and the inside of a container it is put into."""
 _PLACEHOLDER = re.compile(r"\{(\w+)\}")
 
 
@@ -81,7 +79,8 @@ class Templates:
 
     Attributes:
         primitives: primitive id → its template.
-        seed: seed of the sample of sequences.
+        seed: seed of the sample of sequences (those of n steps are drawn with ``seed + n - 2``: each
+            length its own stream, so that a change of one length's draws leaves the others').
         count: sequence length → how many consistent sequences of that length are sampled.
         joins: wording k of a sequence joins wording k of its steps with ``joins[k]``.
     """
@@ -238,37 +237,6 @@ class Generated:
     pairs: int
 
 
-def fits_into(a: SceneObject, c: SceneObject) -> str | None:
-    """Why A cannot be put into container C (sizes from the specs), or None: A's footprint must fit C's
-    inside with :data:`CLEARANCE` on each side; A must fit whole under a lid, door or drawer that closes
-    over it, and at least the ``inside`` relation's fraction of its height must be inside an open vessel."""
-    assert c.interior is not None
-    ax, ay, az = a.size
-    cx, cy, depth = c.interior
-    if c.round_interior:
-        reach = float(np.hypot(ax, ay)) / 2
-        if reach > cx / 2 - CLEARANCE:
-            return (
-                f"the {a.name} ({reach * 200:.1f} cm across its corners) does not fit the {c.name}'s round "
-                f"inside ({cx * 100:.1f} cm wide)"
-            )
-    elif (
-        sorted((ax, ay))[0] > sorted((cx, cy))[0] - 2 * CLEARANCE or max(ax, ay) > max(cx, cy) - 2 * CLEARANCE
-    ):
-        return (
-            f"the {a.name} ({ax * 100:.1f} x {ay * 100:.1f} cm) does not fit the {c.name}'s inside "
-            f"({cx * 100:.1f} x {cy * 100:.1f} cm)"
-        )
-    if c.closable and az > depth:
-        return (
-            f"the {a.name} ({az * 100:.1f} cm tall) stands out of the {c.name} ({depth * 100:.1f} cm deep), "
-            f"whose {c.part} could not close over it"
-        )
-    if az * THRESHOLDS.inside_fraction > depth:
-        return f"less than half of the {a.name} ({az * 100:.1f} cm tall) would be inside the {c.name}"
-    return None
-
-
 def fits_on(a: SceneObject, s: SceneObject) -> str | None:
     """Why A cannot be put on top of surface S, or None: S is not what everything stands on at the start
     (the goal would hold before anything moves), and A's footprint fits S's top."""
@@ -279,36 +247,68 @@ def fits_on(a: SceneObject, s: SceneObject) -> str | None:
     return None
 
 
-def single_steps(objects: dict[str, SceneObject]) -> tuple[list[Step], list[Refusal]]:
-    """Every primitive task the roles of ``objects`` make feasible, and the refused pairings."""
+@dataclass(frozen=True)
+class Singles:
+    """The single steps of a scene (:func:`single_steps`).
+
+    Attributes:
+        steps: every primitive task the roles of the objects make feasible.
+        drawn: what sequences are drawn from (:func:`_sample`): ``steps`` and, in their places, the
+            pairings whose objects fit but that the robot cannot do (:func:`~taskcond.sim.roles.hand_enters`),
+            so that the sample stays the same when the robot gains or loses such an ability.
+        refused: the pairings that cannot work, with their reasons.
+    """
+
+    steps: list[Step]
+    drawn: list[Step]
+    refused: list[Refusal]
+
+
+def _put_into(a: SceneObject, c: SceneObject) -> tuple[str | None, str | None]:
+    """Why A cannot be put into C: by their sizes (:func:`fits_into`), and by the robot
+    (:func:`hand_enters`)."""
+    return fits_into(a, c), hand_enters(a, c)
+
+
+def _put_on(a: SceneObject, s: SceneObject) -> tuple[str | None, str | None]:
+    return fits_on(a, s), None
+
+
+def single_steps(objects: dict[str, SceneObject]) -> Singles:
+    """Every primitive task the roles of ``objects`` make feasible, what sequences are drawn from, and the
+    refused pairings."""
     steps: list[Step] = []
+    drawn: list[Step] = []
     refused: list[Refusal] = []
     free = [o for o in objects.values() if o.free and o.roles.graspable]
     steps += [Step("grasp", (a.name,)) for a in free]
+    drawn += steps
     for pid, test, targets in (
         (
             "move_into",
-            fits_into,
+            _put_into,
             [c for c in objects.values() if c.roles.container and c.interior is not None],
         ),
-        ("move_on_top", fits_on, [s for s in objects.values() if s.roles.surface]),
+        ("move_on_top", _put_on, [s for s in objects.values() if s.roles.surface]),
     ):
         for a in free:
             for b in targets:
                 if b.name == a.name:
                     continue
-                reason = test(a, b)
+                sizes, robot = test(a, b)
                 step = Step(pid, (a.name, b.name))
-                if reason is None:
+                if sizes is None:
+                    drawn.append(step)
+                if sizes is None and robot is None:
                     steps.append(step)
                 else:
-                    refused.append(Refusal(step.name, reason))
+                    refused.append(Refusal(step.name, sizes or robot or ""))
     fixed = [f for f in objects.values() if not f.free and f.name != TABLE and f.owner == f.name]
-    steps += [Step("move_in_front", (a.name, f.name)) for a in free for f in fixed]
+    rest = [Step("move_in_front", (a.name, f.name)) for a in free for f in fixed]
     closable = [c for c in objects.values() if c.closable]
-    steps += [Step(pid, (c.name,)) for pid in ("open", "close") for c in closable]
-    steps += [Step("tilt", (a.name,)) for a in free if a.roles.vessel]
-    return steps, refused
+    rest += [Step(pid, (c.name,)) for pid in ("open", "close") for c in closable]
+    rest += [Step("tilt", (a.name,)) for a in free if a.roles.vessel]
+    return Singles(steps + rest, drawn + rest, refused)
 
 
 def conflict(steps: tuple[Step, ...], objects: dict[str, SceneObject]) -> str | None:
@@ -357,22 +357,24 @@ def conflict(steps: tuple[Step, ...], objects: dict[str, SceneObject]) -> str | 
 
 
 def _sample(
-    singles: list[Step], objects: dict[str, SceneObject], length: int, count: int, rng: np.random.Generator
+    singles: Singles, objects: dict[str, SceneObject], length: int, count: int, rng: np.random.Generator
 ) -> list[tuple[Step, ...]]:
-    """``count`` distinct consistent sequences of ``length`` steps, drawn uniformly among them by rejection
-    (ordered draws of distinct single steps, the inconsistent ones drawn again), in the order drawn."""
+    """``count`` distinct consistent sequences of ``length`` feasible steps, drawn uniformly among them by
+    rejection (ordered draws of distinct steps of ``singles.drawn``; a draw with a step the robot cannot do,
+    or an inconsistent one, is drawn again), in the order drawn."""
     out: dict[tuple[Step, ...], None] = {}
+    feasible = set(singles.steps)
     for _ in range(1000 * max(count, 1)):
         if len(out) == count:
             break
-        seq = tuple(singles[i] for i in rng.choice(len(singles), size=length, replace=False))
-        if conflict(seq, objects) is None:
+        seq = tuple(singles.drawn[i] for i in rng.choice(len(singles.drawn), size=length, replace=False))
+        if feasible.issuperset(seq) and conflict(seq, objects) is None:
             out[seq] = None
     return list(out)
 
 
 def consistent_pairs(singles: list[Step], objects: dict[str, SceneObject]) -> int:
-    """How many consistent sequences of two steps there are (of three steps the kitchen has 150,659: too
+    """How many consistent sequences of two steps there are (of three steps the kitchen has 117,054: too
     many to count at every run)."""
     return sum(conflict((a, b), objects) is None for a in singles for b in singles if a != b)
 
@@ -456,19 +458,19 @@ def generate(objects: dict[str, SceneObject], templates: Templates | None = None
         ValueError: a primitive the scene makes feasible has no template.
     """
     templates = templates or load_templates()
-    singles, refused = single_steps(objects)
-    missing = sorted({s.primitive for s in singles} - set(templates.primitives))
+    singles = single_steps(objects)
+    missing = sorted({s.primitive for s in singles.steps} - set(templates.primitives))
     if missing:
         raise ValueError(
             f"no template for primitive {missing[0]!r}; add a [[primitive]] to the templates file"
         )
-    out = [_combination((s,), objects, templates) for s in singles]
-    rng = np.random.default_rng(templates.seed)
+    out = [_combination((s,), objects, templates) for s in singles.steps]
     for length, count in sorted(templates.count.items()):
+        rng = np.random.default_rng(templates.seed + length - 2)  # each length its own stream
         out += [
             _combination(seq, objects, templates) for seq in _sample(singles, objects, length, count, rng)
         ]
-    return Generated(out, refused, consistent_pairs(singles, objects))
+    return Generated(out, singles.refused, consistent_pairs(singles.steps, objects))
 
 
 def _said(text: str) -> str:
@@ -563,11 +565,11 @@ def write_instructions(combinations: Iterable[Combination], path: Path) -> None:
 
 
 __all__ = [
-    "CLEARANCE",
     "FORMAT_VERSION",
     "Combination",
     "Generated",
     "Refusal",
+    "Singles",
     "Step",
     "Template",
     "TemplateError",
@@ -575,7 +577,6 @@ __all__ = [
     "conflict",
     "consistent_pairs",
     "default_templates_file",
-    "fits_into",
     "fits_on",
     "generate",
     "goal_of_words",

@@ -6,7 +6,9 @@ The prompt (``prompts/<version>/decompose.txt``) lists the primitive task forms 
 tasks as examples. Every answer line must parse as a primitive task (:func:`taskcond.primitives.parse_task`)
 on objects of the scene; an invalid answer is shown its error and asked again, a bounded number of times.
 The prompt's rule "grasp an object before moving it, release it after" is then enforced on the release
-(:func:`with_releases`): a small model often ends "put the mug on the box" holding the mug.
+(:func:`with_releases`): a small model often ends "put the mug on the box" holding the mug. An answer must
+also say what the instruction's clauses say where they read as primitive tasks (:func:`said_tasks`,
+:func:`contradiction`); when no answer does and every clause reads as one, the plan is what they say.
 """
 
 from __future__ import annotations
@@ -65,6 +67,56 @@ def parse_plan(
     return tasks
 
 
+CLAUSE_BREAK = re.compile(
+    r"\s*(?:[,;.!?]|\band after that\b|\band then\b|\bthen\b|\band\b)\s*", re.IGNORECASE
+)
+"""Where an instruction's clauses meet: punctuation and the words that join them."""
+SETTING_UP = ("grasp", "release", "open", "close")
+"""Primitives a plan may add to what its words say: the grasps, releases, opens and closes that other steps
+need (the prompt's rule "grasp an object before moving it, release it after")."""
+
+
+def said_tasks(instruction: str, objects: Sequence[str]) -> list[str | None]:
+    """The primitive task each clause of ``instruction`` (split at :data:`CLAUSE_BREAK`) reads as on
+    objects of the scene (:func:`~taskcond.primitives.parse_task`; "it" is the previous clause's first
+    object: "pick up the mug and tilt it"), None for a clause that reads as none."""
+    out: list[str | None] = []
+    previous: str | None = None
+    for clause in filter(None, (c.strip() for c in CLAUSE_BREAK.split(instruction))):
+        if previous is not None:
+            clause = re.sub(r"\bit\b", f"the {previous}", clause)
+        try:
+            task = parse_task(clause)
+        except TaskNameError:
+            out.append(None)
+            continue
+        known = set(task.objects) <= set(objects)
+        out.append(task.name if known else None)
+        previous = task.objects[0] if known and task.objects else previous
+    return out
+
+
+def contradiction(plan: Sequence[str], said: Sequence[str | None]) -> str | None:
+    """How ``plan`` (canonical task names) contradicts the tasks its instruction's clauses say
+    (:func:`said_tasks`), or None: a said task missing from the plan, or, when every clause says a task, a
+    step that is none of them and no :data:`SETTING_UP` step ("pick up the toothpaste" answered ``grasp
+    toothpaste``, ``move toothpaste into bowl``). Asked of each answer, like the scene's refusals, so that
+    the LLM answers again ("Stack the cube on the box" was answered ``move cube into box``)."""
+    for task in filter(None, said):
+        if task not in plan:
+            return f"the instruction says {task!r}, and the answer does not"
+    if said and all(said):
+        extra = [t for t in plan if t not in said and parse_task(t).primitive.id not in SETTING_UP]
+        if extra:
+            return f"the instruction does not say {extra[0]!r}"
+    return None
+
+
+def _refused(task: str, affords: Callable[[str, tuple[str, ...]], str | None]) -> bool:
+    parsed = parse_task(task)
+    return affords(parsed.primitive.id, parsed.objects) is not None
+
+
 def with_releases(tasks: Sequence[str]) -> list[str]:
     """``tasks`` (canonical primitive task names) with ``release A`` right after the last move of each A to a
     place (:attr:`~taskcond.primitives.Primitive.places`) that no later task releases, moves, tilts or
@@ -85,6 +137,8 @@ def with_releases(tasks: Sequence[str]) -> list[str]:
 
 LET_GO = ("release", "let go", "drop", "put down", "set down", "place", "put it", "leave")
 """Words by which an instruction asks for what it holds to be let go of."""
+PUT_DOWN = ("release", "let go", "drop", "put down", "set down", "put it down", "set it down", "put it back")
+"""Words by which an instruction asks for what it has just picked up to be let go of where it is."""
 
 
 def mentions(instruction: str, words: Sequence[str]) -> bool:
@@ -96,17 +150,22 @@ def mentions(instruction: str, words: Sequence[str]) -> bool:
 
 def without_carry_releases(tasks: Sequence[str], instruction: str) -> list[str]:
     """``tasks`` without a ``release A`` that directly follows ``move A to position`` when ``instruction``
-    has none of the :data:`LET_GO` words: a move to a position is a carry that leaves the object held
-    (:attr:`~taskcond.primitives.Primitive.to_position`), and a small model adds the release by the prompt's
-    rule "release it after"."""
-    if mentions(instruction, LET_GO):
-        return list(tasks)
+    has none of the :data:`LET_GO` words, or ``grasp A`` when it has none of the :data:`PUT_DOWN` words:
+    a move to a position is a carry that leaves the object held
+    (:attr:`~taskcond.primitives.Primitive.to_position`), a grasp leaves it held, and a small model adds the
+    release by the prompt's rule "release it after" ("Stack the mug on the box and grasp the can." →
+    ``..., grasp can, release can``)."""
+    keep_after_carry, keep_after_grasp = mentions(instruction, LET_GO), mentions(instruction, PUT_DOWN)
     plan: list[str] = []
     last = None  # the last task kept, parsed
     for name in tasks:
         task = parse_task(name)
-        carried = last is not None and last.primitive.to_position and last.objects[:1] == task.objects[:1]
-        if not (task.primitive.lets_go and carried):
+        same = last is not None and last.objects[:1] == task.objects[:1]
+        held = same and (
+            (last.primitive.to_position and not keep_after_carry)
+            or (last.primitive.grasps and not keep_after_grasp)
+        )
+        if not (task.primitive.lets_go and held):
             plan.append(name)
             last = task
     return plan
@@ -156,6 +215,22 @@ def with_tilt(instruction: str) -> str:
     return POUR.sub(lambda m: "Tilt" if m[1] == "P" else "tilt", instruction)
 
 
+PUSH_SHUT = re.compile(r"\b(?P<verb>push|pull)\s+(?P<what>[^,;.!?]+?)\s+(?P<how>shut|closed|open)\b", re.I)
+"""A drawer, lid or door pushed shut or pulled open: "push the top drawer shut"."""
+
+
+def with_open_close(instruction: str) -> str:
+    """``instruction`` with "push X shut" said as "close X" and "pull X open" as "open X", the vocabulary's
+    verbs (issue 31, item 5): the embedded model answered "push the top drawer shut" with ``open top
+    drawer``. The verbs stay free for a primitive a user declares (``push A in front of B``)."""
+
+    def said(m: re.Match[str]) -> str:
+        verb = "open" if m["how"].lower() == "open" else "close"
+        return f"{verb.title() if m['verb'][0].isupper() else verb} {m['what']}"
+
+    return PUSH_SHUT.sub(said, instruction)
+
+
 def decompose(
     instruction: str,
     backend: ChatBackend,
@@ -164,24 +239,30 @@ def decompose(
     max_retries: int = 2,
     version: str = "v1",
     aliases: Mapping[str, str] | None = None,
+    tell: Callable[[str], None] | None = None,
 ) -> list[str]:
     """Ask the LLM for the primitive tasks of ``instruction`` in order (a release the instruction does not
     ask for after a carry dropped, :func:`without_carry_releases`; :func:`with_releases` added),
     the objects' ``aliases`` (alias → object name) replaced by their names first
-    (:func:`with_object_names`), "on" said as "on top of" (:func:`with_on_top`) and "pour" as "tilt"
-    (:func:`with_tilt`).
+    (:func:`with_object_names`), "on" said as "on top of" (:func:`with_on_top`), "pour" as "tilt"
+    (:func:`with_tilt`), "push X shut" as "close X" (:func:`with_open_close`). Each answer must also say
+    what the instruction's clauses say (:func:`contradiction`); when no answer does and every clause reads
+    as a primitive task, the plan is those tasks (releases added, the grasps and opens left to the
+    planner), and ``tell`` is told so.
 
     Raises:
         DecompositionError: no valid plan within ``1 + max_retries`` answers (the last error is given).
         LLMError: the backend failed.
     """
     patterns = "\n".join(f"  {p.pattern}" for p in PRIMITIVES.values())
-    text = with_tilt(with_on_top(with_object_names(" ".join(instruction.split()), objects, aliases or {})))
+    named = with_object_names(" ".join(instruction.split()), objects, aliases or {})
+    text = with_open_close(with_tilt(with_on_top(named)))
     prompt = load_prompt("decompose", version).substitute(
         patterns=patterns, objects=", ".join(objects), instruction=text
     )
     messages = [ChatMessage("user", prompt)]
     error = ""
+    said = said_tasks(text, objects)
     for _ in range(max_retries + 1):
         response = backend.chat(
             ChatRequest(
@@ -189,24 +270,37 @@ def decompose(
             )
         )
         try:
-            return with_releases(without_carry_releases(parse_plan(response.text, objects, affords), text))
+            plan = with_releases(without_carry_releases(parse_plan(response.text, objects, affords), text))
+            wrong = contradiction(plan, said)
+            if wrong is not None:
+                raise DecompositionError(wrong)
+            return plan
         except DecompositionError as exc:
             error = str(exc)
             messages += [
                 ChatMessage("assistant", response.text),
                 ChatMessage("user", f"That answer is not valid: {error}. Answer again, one task per line."),
             ]
+    refused = [t for t in said if t is not None and affords is not None and _refused(t, affords)]
+    if said and all(said) and not refused and len(said) <= MAX_STEPS:
+        if tell is not None:
+            tell(f"the LLM's answers contradict the instruction's words ({error}); the plan is what they say")
+        return with_releases([t for t in said if t is not None])
     raise DecompositionError(f"no valid plan for {instruction!r}: {error}")
 
 
 __all__ = [
+    "CLAUSE_BREAK",
     "DecompositionError",
     "LLMError",
+    "contradiction",
     "decompose",
     "mentions",
     "parse_plan",
+    "said_tasks",
     "with_object_names",
     "with_on_top",
+    "with_open_close",
     "with_releases",
     "with_tilt",
     "without_carry_releases",

@@ -41,8 +41,9 @@ def test_the_generator_enumerates_the_kitchens_cells(generated) -> None:
     assert by_primitive["open"] == by_primitive["close"] == joints
     assert by_primitive["move_in_front"] == {(o, f) for o in FREE for f in ("cabinet", "box", "microwave")}
     assert by_primitive["move_on_top"] == {(o, s) for o in FREE for s in ("cabinet", "box", "microwave")}
-    assert {("toothpaste", "mug"), ("bowl", "box"), ("mug", "microwave")} <= by_primitive["move_into"]
-    assert len(by_primitive["move_into"]) == 27
+    assert {("toothpaste", "mug"), ("bowl", "box"), ("mug", "top drawer")} <= by_primitive["move_into"]
+    assert not any(c == "microwave" for _, c in by_primitive["move_into"])  # entered at its side
+    assert len(by_primitive["move_into"]) == 20
     stack = singles["move_on_top-bowl-box"]
     assert "Stack the bowl on the box." in stack.wordings
     assert [str(q) for q in stack.goal] == ["bowl above box", "gripper not grasping"]
@@ -56,8 +57,44 @@ def test_an_impossible_pairing_is_refused_with_its_reason(generated) -> None:
     assert "lid could not close" not in refused["move bottle into top drawer"]
     assert "drawer could not close over it" in refused["move bottle into top drawer"]
     assert "goal holds before anything moves" in refused["move cube on top of table"]
+    assert (
+        "opens at its side, and every grasp here holds the mug from above"
+        in refused["move mug into microwave"]
+    )
     ids = {c.id for c in generated.combinations}
     assert "move_into-bowl-mug" not in ids and "move_on_top-cube-table" not in ids
+
+
+def test_a_step_the_hand_cannot_do_leaves_the_rest_of_the_sample_as_it_was(generated) -> None:
+    """Sequences are drawn among every pairing whose objects fit, and one with a step the hand cannot do
+    (into the microwave, entered at its side) is drawn again: were the microwave open from above, the
+    sample would differ only where such a step was drawn."""
+    roles = scene_roles()
+    from_above = roles | {"microwave": dataclasses.replace(roles["microwave"], side_opening=False)}
+
+    def into_microwave(c) -> bool:
+        return any(s.primitive == "move_into" and s.target == "microwave" for s in c.steps)
+
+    opened = [c for c in generate(from_above).combinations if len(c.steps) > 1]
+    assert any(into_microwave(c) for c in opened)
+    kept = {c.id for c in generated.combinations}
+    assert {c.id for c in opened if not into_microwave(c)} <= kept
+    assert not any(into_microwave(c) for c in generated.combinations)
+
+
+def test_an_instruction_with_a_clause_the_hand_cannot_do_is_refused_before_the_llm(
+    tmp_path, monkeypatch
+) -> None:
+    """ "Put the mug in the microwave and close the microwave.": told that the mug cannot go into the
+    microwave, the LLM answered the mug onto the table, and the run met that plan's goal; now the clause is
+    refused in one line before the LLM is asked, and nothing runs."""
+    monkeypatch.setenv("TASKCOND_CACHE_DIR", str(tmp_path / "cache"))
+    monkeypatch.chdir(tmp_path)
+    res = CliRunner().invoke(app, ["run", "Open the door, then put the mug in the microwave and close it."])
+    assert res.exit_code == 2, res.output
+    assert res.stderr.startswith("error: cannot 'move mug into microwave': the microwave opens at its side")
+    assert res.stderr.count("\n") == 1 and not (tmp_path / "runs").exists()
+    assert not (tmp_path / "cache").exists() or not any((tmp_path / "cache").rglob("*.json"))
 
 
 def test_sequences_are_consistent_seeded_and_their_goals_hold_jointly(generated) -> None:
@@ -79,8 +116,8 @@ def test_the_words_own_goal_is_the_templates(generated) -> None:
     assert goal_of_words("stack the bowl on the box", generated) == stack.goal
     assert goal_of_words("Open the door!", generated) == (parse_predicate("microwave open"),)
     assert goal_of_words("Stack the bowl on the box and sing.", generated) is None
-    joined = "Pick up the mug, then put it in the microwave and after that close the top drawer."
-    goal = {"mug inside microwave", "top drawer closed"}
+    joined = "Pick up the mug, then put it in the box and after that close the top drawer."
+    goal = {"mug inside box", "top drawer closed"}
     assert {str(q) for q in goal_of_words(joined, generated)} == goal  # "it" is the mug; hand state: last
     assert {str(q) for q in goal_of_words("Stack the cube on the box and open the box.", generated)} == {
         "cube above box",

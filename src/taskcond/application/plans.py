@@ -8,7 +8,7 @@ from collections.abc import Callable, Iterable
 from dataclasses import dataclass, replace
 from typing import Any
 
-from taskcond.decompose import mentions
+from taskcond.decompose import CLAUSE_BREAK, mentions
 from taskcond.llm.base import ChatBackend
 from taskcond.primitives import TaskNameError, parse_task
 from taskcond.sim.roles import part_aliases, scene_roles
@@ -93,32 +93,35 @@ def llm_decomposer(
     announce: Callable[[str], None] | None = None,
     threads: int | None = None,
     backend: ChatBackend | None = None,
+    tell: Callable[[str], None] | None = None,
 ) -> Callable[[str, str], list[str]]:
     """The ``decomposer`` of :func:`plan_run` with the LLM of ``llm`` (the ``--llm`` spec; answers cached;
     an embedded model on ``threads`` CPU threads, None: every core), or with ``backend`` when given (a
     backend the caller built, e.g. its own LLM client or a model already loaded):
     an instruction that reads as one primitive task the scene cannot do is refused first
-    (:func:`refused_task`); ``announce`` is told the scene before the LLM is asked. The LLM reads the
-    objects' other names (:func:`~taskcond.sim.scene.scene_aliases`) and their parts ("the door": the
-    microwave, :func:`~taskcond.sim.roles.part_aliases`) as the objects' names.
+    (:func:`refused_task`); ``announce`` is told the scene before the LLM is asked, ``tell`` when the plan
+    is read from the instruction's words instead of the LLM's answers
+    (:func:`~taskcond.decompose.decompose`). The LLM reads the objects' other names
+    (:func:`~taskcond.sim.scene.scene_aliases`) and their parts ("the door": the microwave,
+    :func:`~taskcond.sim.roles.part_aliases`) as the objects' names.
 
     The decomposer raises DecompositionError (no valid plan, or refused) and LLMError."""
-    from taskcond.decompose import DecompositionError, decompose
+    from taskcond.decompose import DecompositionError, decompose, with_object_names
     from taskcond.llm.config import LLMConfig, make_backend
 
     backends: list[Any] = [] if backend is None else [backend]
 
     def decomposer(instruction: str, scene: str) -> list[str]:
         objects, affords = scene_objects(scene)
-        refused = refused_task(instruction, objects, affords)
+        aliases = scene_aliases() | part_aliases(o for o in scene_roles().values() if o.name in objects)
+        refused = refused_task(with_object_names(instruction, objects, aliases), objects, affords)
         if refused is not None:
             raise DecompositionError(f"{refused}; nothing was run")
         if announce is not None:
             announce(scene)
         if not backends:
             backends.append(make_backend(replace(LLMConfig.load(llm), threads=threads)))
-        aliases = scene_aliases() | part_aliases(o for o in scene_roles().values() if o.name in objects)
-        return decompose(instruction, backends[0], objects, affords, aliases=aliases)
+        return decompose(instruction, backends[0], objects, affords, aliases=aliases, tell=tell)
 
     return decomposer
 
@@ -141,15 +144,22 @@ def instruction_plan(text: str, decomposer: Callable[[str, str], list[str]]) -> 
 def refused_task(
     instruction: str, objects: Iterable[str], affords: Callable[[str, tuple[str, ...]], str | None]
 ) -> str | None:
-    """Why an instruction that reads as one primitive task on objects of the scene cannot be done there
-    (``put the box into the bottle``: the box cannot be picked up), or None. Asked before the LLM
-    decomposes it, which would otherwise answer a different task (the bottle into the box). An
-    instruction naming an object the scene lacks is left to the LLM (it may be a misspelling)."""
-    try:
-        task = parse_task(instruction.strip().rstrip(".!?"))
-    except TaskNameError:
-        return None
-    if not set(task.objects) <= set(objects):
-        return None
-    reason = affords(task.primitive.id, task.objects)
-    return None if reason is None else f"cannot {task.name!r}: {reason}"
+    """Why an instruction that reads as one primitive task on objects of the scene, or has a clause that
+    does, cannot be done there (``put the box into the bottle``: the box cannot be picked up; "put the mug
+    in the microwave and close it": the hand cannot enter the microwave), or None. Asked before the LLM
+    decomposes it, which would otherwise answer a different task (the bottle into the box; told that the
+    mug cannot go into the microwave, the mug on the table, and the run would meet the goal of that plan).
+    An instruction naming an object the scene lacks is left to the LLM (it may be a misspelling)."""
+    names = set(objects)
+    clauses = [instruction.strip().rstrip(".!?"), *CLAUSE_BREAK.split(instruction)]
+    for clause in filter(None, (c.strip() for c in clauses)):
+        try:
+            task = parse_task(clause)
+        except TaskNameError:
+            continue
+        if not set(task.objects) <= names:
+            continue
+        reason = affords(task.primitive.id, task.objects)
+        if reason is not None:
+            return f"cannot {task.name!r}: {reason}"
+    return None

@@ -166,7 +166,7 @@ def _resolve(spec: str, llm: str | None):
         typer.echo(f"decomposing the instruction with the LLM ({scene} scene) ...", err=True)
 
     try:
-        plan = plan_run(spec, llm_decomposer(llm, announce))
+        plan = plan_run(spec, llm_decomposer(llm, announce, tell=lambda text: typer.echo(text, err=True)))
     except (DecompositionError, LLMError, ValueError) as exc:
         fail(str(exc))
     if plan.task_id is None and not plan.decomposed:  # one primitive task the suite does not have

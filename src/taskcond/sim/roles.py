@@ -17,9 +17,11 @@ from collections.abc import Iterable
 from dataclasses import dataclass
 from itertools import product
 
+import numpy as np
 import pybullet as p
 from scipy.spatial.transform import Rotation
 
+from taskcond.relations import THRESHOLDS
 from taskcond.sim.assets import (
     AssetSpec,
     BoxSpec,
@@ -33,6 +35,9 @@ from taskcond.sim.assets import (
 from taskcond.sim.scene import ARTICULATED, ROLES, TABLE, SceneConfig
 
 Vec3 = tuple[float, float, float]
+
+CLEARANCE = 0.005
+"""Least gap (m) on each side between an object and the inside of a container it is put into."""
 
 
 @dataclass(frozen=True)
@@ -72,6 +77,8 @@ class SceneObject:
         part: what opens it (``"lid"``, ``"door"``; ``"drawer"`` for a drawer, which is its own part), or
             None when it has no joint.
         owner: the body it belongs to (a drawer: ``"cabinet"``; else its own name).
+        side_opening: the inside is entered through a side (the microwave: a door hinged about a vertical
+            axis), not from above like a drawer's, a lidded box's or a vessel's.
     """
 
     name: str
@@ -82,6 +89,7 @@ class SceneObject:
     round_interior: bool = False
     part: str | None = None
     owner: str = ""
+    side_opening: bool = False
 
     @property
     def closable(self) -> bool:
@@ -129,6 +137,12 @@ def _part(spec: AssetSpec) -> str | None:
     return joints[0].child.split("_")[-1] if joints else None
 
 
+def _side_opening(spec: AssetSpec) -> bool:
+    """Whether a spec's inside opens at a side: its one joint is a hinge about a vertical axis (a door)."""
+    joints = spec.joints() if isinstance(spec, BoxSpec | MicrowaveSpec) else []
+    return bool(joints) and joints[0].kind == "revolute" and abs(joints[0].axis[2]) > 0.9
+
+
 def scene_roles(config: SceneConfig | None = None) -> dict[str, SceneObject]:
     """Every object of the single-arm kitchen of ``config`` (default :class:`SceneConfig`) with its roles,
     in the scene's order: the table, the cabinet and its drawers, the box, the microwave, the free
@@ -154,6 +168,7 @@ def scene_roles(config: SceneConfig | None = None) -> dict[str, SceneObject]:
             bool(inner and inner.round),
             _part(spec),
             name,
+            _side_opening(spec),
         )
         if isinstance(spec, CabinetSpec):
             for drawer, inside in spec.interiors().items():
@@ -187,8 +202,65 @@ def part_aliases(objects: Iterable[SceneObject]) -> dict[str, str]:
     return aliases
 
 
+def hand_enters(a: SceneObject, c: SceneObject) -> str | None:
+    """Why the kitchen's hand cannot put A into container C where A fits it (:func:`fits_into`), or None.
+    C must open from above (not :attr:`~SceneObject.side_opening`): every grasp of the kitchen holds its
+    object from above, and the arm over a held object cannot pass under the top of a container entered
+    through its side (the microwave's inside is 18 cm tall; the Panda's hand and wrist stand about 20 cm
+    above its fingertips). A rule of this robot's skills, not of the two objects: a side grasp would lift
+    it."""
+    assert c.interior is not None
+    if not c.side_opening:
+        return None
+    return (
+        f"the {c.name} opens at its side, and every grasp here holds the {a.name} from above: the arm "
+        f"over it cannot pass under the {c.name}'s top ({c.interior[2] * 100:.0f} cm inside)"
+    )
+
+
+def fits_into(a: SceneObject, c: SceneObject) -> str | None:
+    """Why A cannot be put into container C (sizes from the specs), or None: A's footprint must fit C's
+    inside with :data:`CLEARANCE` on each side; A must fit whole under a lid, door or drawer that closes
+    over it, and at least the ``inside`` relation's fraction of its height must be inside an open vessel."""
+    assert c.interior is not None
+    ax, ay, az = a.size
+    cx, cy, depth = c.interior
+    if c.round_interior:
+        reach = float(np.hypot(ax, ay)) / 2
+        if reach > cx / 2 - CLEARANCE:
+            return (
+                f"the {a.name} ({reach * 200:.1f} cm across its corners) does not fit the {c.name}'s round "
+                f"inside ({cx * 100:.1f} cm wide)"
+            )
+    elif (
+        sorted((ax, ay))[0] > sorted((cx, cy))[0] - 2 * CLEARANCE or max(ax, ay) > max(cx, cy) - 2 * CLEARANCE
+    ):
+        return (
+            f"the {a.name} ({ax * 100:.1f} x {ay * 100:.1f} cm) does not fit the {c.name}'s inside "
+            f"({cx * 100:.1f} x {cy * 100:.1f} cm)"
+        )
+    if c.closable and az > depth:
+        return (
+            f"the {a.name} ({az * 100:.1f} cm tall) stands out of the {c.name} ({depth * 100:.1f} cm deep), "
+            f"whose {c.part} could not close over it"
+        )
+    if az * THRESHOLDS.inside_fraction > depth:
+        return f"less than half of the {a.name} ({az * 100:.1f} cm tall) would be inside the {c.name}"
+    return None
+
+
 def _inside(half: Vec3) -> Vec3:
     return (2 * half[0], 2 * half[1], 2 * half[2])
 
 
-__all__ = ["ObjectRoles", "SceneObject", "file_extents", "link_extents", "part_aliases", "scene_roles"]
+__all__ = [
+    "CLEARANCE",
+    "ObjectRoles",
+    "SceneObject",
+    "file_extents",
+    "fits_into",
+    "hand_enters",
+    "link_extents",
+    "part_aliases",
+    "scene_roles",
+]

@@ -19,6 +19,7 @@ from taskcond.primitives import get_primitive
 from taskcond.sim.assets import ROUND_CLASSES, shape_class
 from taskcond.sim.perception import EnvironmentInfo, Perception, PerceptionConfig
 from taskcond.sim.recording import VideoRecorder
+from taskcond.sim.roles import SceneObject, fits_into, hand_enters, scene_roles
 from taskcond.sim.scene import DECLARED, TABLE
 from taskcond.tasks.free import FreeTask
 
@@ -120,6 +121,8 @@ class KitchenWorld:
         self._round = frozenset(name for name, shape in self._shapes.items() if shape in ROUND_CLASSES)
         """Free objects of a turned-about-their-axis shape: cylinders (bottle, can), spheres and vessels
         (bowl, mug: held by the wall, which the mug's handle leaves free on most sides)."""
+        self._roles: dict[str, SceneObject] | None = None
+        """Every object's roles (:func:`~taskcond.sim.roles.scene_roles`), read when a move into is asked."""
         self._headed = tuple(name for name, shape in self._shapes.items() if shape in HEADED)
         """Free objects whose heading is perceived (:data:`HEADED`)."""
         self.env_seconds = 0.0
@@ -206,9 +209,24 @@ class KitchenWorld:
         into = prim.effect(*objects) if prim.places is Relation.INSIDE else None
         if isinstance(into, SpatialRelation) and into.reference not in interiors:
             return f"{into.reference!r} is not a container (containers: {', '.join(interiors)})"
+        if isinstance(into, SpatialRelation):
+            return self._put_into(into.subject, into.reference)
         if primitive == "fold" and ("cloth" not in self._objects or len(self._arms) < 2):
             return "folding needs the cloth and two arms, which this scene does not have"
         return None
+
+    def _put_into(self, a: str, c: str) -> str | None:
+        """Why ``a`` cannot be put into the container ``c`` by their sizes and by this hand (the combination
+        benchmark's rules, :func:`~taskcond.sim.roles.fits_into` and
+        :func:`~taskcond.sim.roles.hand_enters`: "put the mug in the microwave" is refused at once with
+        the reason it is not in the benchmark), or None; a container or object the roles do not know (the
+        dual-arm scene's) is left to the run."""
+        if self._roles is None:
+            self._roles = scene_roles(self.env.scene.config)
+        roles = self._roles
+        if a not in roles or c not in roles or roles[c].interior is None:
+            return None
+        return fits_into(roles[a], roles[c]) or hand_enters(roles[a], roles[c])
 
     def reach_error(self, position: np.ndarray) -> str | None:
         position = np.asarray(position, float)
