@@ -432,11 +432,13 @@ class Approach:
         :data:`BYSTANDER_CLEARANCE` from each of them (:meth:`World.sweep
         <taskcond.execution.world.World.sweep>`: the wrist behind a hand turned to a drawer's handle sweeps
         low over the table in front of it, where the hand itself never goes, on the way in and on the
-        pull). Else the hand goes over what stands on the way (:func:`_over_height`) to a point of the
-        demonstrated last approach (:func:`_rejoins`), turned there as the first piece ends, tilted by the
-        least of :data:`TILTS` (:func:`tilted`: the wrist higher) from which the arm passes clear of all of
-        them on the way there and through the whole skill, and the first piece goes on straight
-        (:attr:`Aim.detour`); when none is clear, the demonstrated way is kept."""
+        pull). Else the hand goes over what stands on the way (:func:`_over_height`) to a point on the
+        line of the demonstrated last approach (:func:`_rejoins`), turned there as the first piece ends,
+        tilted by the least of :data:`TILTS` (:func:`tilted`: the wrist higher) from which the arm keeps
+        that far from all of them on the way there and through the whole skill (and from everything else on
+        the way there: a drawer open above the handle), and the first piece goes on straight
+        (:attr:`Aim.detour`); when none keeps that far, the one that keeps farthest, if it touches none;
+        else the demonstrated way is kept."""
         standing = _bystanders(g.target_name, g.obs)
         first = g.skill.segments[0]
         if not standing or g.skill.arms != 1:
@@ -454,6 +456,7 @@ class Approach:
         end_q = first.orientation(1.0, here_q, turn)
         goal = first.goal(g.target, g.target, turn, g.scale)
         pad = self.config.hand[0] + CARRY_MARGIN
+        best, best_gap = way, 0.0
         for tilt in TILTS if _level(end_q) else TILTS[:1]:
             quat = tilted(end_q, tilt)
             for point in _rejoins(first, goal, turn):
@@ -463,9 +466,12 @@ class Approach:
                 head = self._transit_way(here, here_q, point, quat, over)
                 pieces = self._pieces_way(g, turn, point, quat, True, tilt)
                 detour = np.concatenate([head[0], pieces[0]]), np.concatenate([head[1], pieces[1]])
-                if self._sweep_of(*detour, standing, g.obs) >= BYSTANDER_CLEARANCE:
-                    return CarriedWay(point, over, False, True, swept, tilt)
-        return way
+                gap = min(self._sweep_of(*detour, standing, g.obs), self.world.sweep(*head, (g.target_name,)))
+                if gap > best_gap:
+                    best, best_gap = CarriedWay(point, over, False, True, swept, tilt), gap
+                if gap >= BYSTANDER_CLEARANCE:
+                    return best
+        return best
 
     def _transit_way(
         self, here: np.ndarray, here_q: np.ndarray, goal: np.ndarray, quat: np.ndarray, over: float | None
@@ -971,10 +977,13 @@ BYSTANDER_CLEARANCE = 0.01
 """Least distance (m) between the arm and a free object standing beside the target (:func:`_bystanders`)
 on the way of an empty-hand primitive that grasps nothing, below which the hand goes another way
 (:meth:`Approach._clear_way`): the arm lags its commands, and what it brushes may fall."""
-REJOIN_BACK = (0.12, 0.09, 0.06)
-"""Lengths (m) of the demonstrated way back from the first piece's goal at which a way clear of the free
-objects beside the target may join it (:func:`_rejoins`), farthest first: the last approach to a drawer's
-handle is 12 cm straight in; nearer than 6 cm the open fingers come down onto the handle."""
+REJOIN_BACK = (0.12, 0.09, 0.06, 0.18, 0.24)
+"""Distances (m) back from the first piece's goal along its demonstrated last approach at which a way clear
+of the free objects beside the target may join it (:func:`_rejoins`), in the order tried: the last approach
+to a drawer's handle is 12 cm straight in (nearer than 6 cm the open fingers would come down onto the
+handle); farther back, the hand comes in under a drawer open above it."""
+REJOIN_LAST = 0.03
+"""Length (m) of the end of the first piece's demonstrated way whose direction is its last approach."""
 
 
 TILTS = (0.0, math.pi / 12, math.pi / 6, math.pi / 4)
@@ -1027,23 +1036,25 @@ def piece_goal(
 
 
 def _bystanders(target: str, obs: Observation) -> list[str]:
-    """The free objects but ``target`` that stand up (:func:`_tall`) and have not fallen: what an arm
-    brushing past may knock over."""
-    return [n for n in obs.shapes if n != target and n not in obs.lying and _tall(n, obs)]
+    """The free objects but ``target`` that are not flat
+    (:attr:`~taskcond.execution.world.Observation.shapes`) and have not fallen: what an arm brushing past
+    may knock over (the mug too, wider than high with its handle)."""
+    return [n for n in obs.shapes if n != target and n not in obs.lying and obs.shapes[n] != "flat"]
 
 
 def _rejoins(first: Segment, goal: np.ndarray, turn: float) -> list[np.ndarray]:
-    """(3,) m, world frame: the points of the first piece's demonstrated way, moved with its goal to
-    ``goal`` (3,) m and turned by ``turn`` rad, at each of :data:`REJOIN_BACK` of way back from its end
-    (the demonstration's own path, sampled finely); a length longer than the whole way is left out."""
+    """(3,) m, world frame: the points :data:`REJOIN_BACK` back from ``goal`` (3,) m, the first piece's
+    goal, against the direction of its demonstrated last approach (its way's last :data:`REJOIN_LAST`,
+    turned by ``turn`` rad); none when the demonstration ends without moving."""
     dmp = first.dmp
-    path = rollout(dmp, dmp.y0, dmp.goal, n_steps=200).positions[:, :3] - dmp.goal[:3]
-    back = np.concatenate([np.cumsum(np.linalg.norm(np.diff(path[::-1], axis=0), axis=1))[::-1], [0.0]])
-    return [
-        goal + turned(path[int(np.nonzero(back >= length)[0][-1])], turn)
-        for length in REJOIN_BACK
-        if back[0] >= length
-    ]
+    path = rollout(dmp, dmp.y0, dmp.goal, n_steps=200).positions[:, :3]
+    back = np.linalg.norm(path - path[-1], axis=1)
+    before = np.nonzero(back >= REJOIN_LAST)[0]
+    if not len(before):
+        return []
+    way = turned(path[-1] - path[before[-1]], turn)
+    way = way / np.linalg.norm(way)
+    return [np.asarray(goal, float) - length * way for length in REJOIN_BACK]
 
 
 def start_orientation(first: Segment, here: np.ndarray) -> np.ndarray:
