@@ -107,9 +107,10 @@ class Aim:
             round object by a hand with :attr:`~taskcond.execution.config.Hand.round_carry_holds`.
         detour: the demonstrated way of an empty-hand primitive that grasps nothing (an open, a close)
             would sweep the arm through a free object standing beside it (:meth:`Approach._clear_way`,
-            issue 31): the hand went over what stands on the way to ``approach``, a point of the
-            demonstrated last approach to the first piece's goal, turned as it arrives there, and the first
-            piece goes on straight (its forcing term off, :func:`_conditioned`) holding that heading.
+            issue 31): the hand went over what stands on the way to ``approach``, a point on the line of
+            the demonstrated last approach to the first piece's goal, turned as it arrives there (and
+            ``tilt``), and the first piece goes on straight (its forcing term off, :func:`_conditioned`)
+            holding that heading.
         swept: the free objects the demonstrated way would have swept (with ``detour``); empty otherwise.
         tilt: rad by which the hand arrives at ``approach`` on a ``detour`` tilted (:func:`tilted`), its
             wrist higher; the later pieces keep it.
@@ -169,8 +170,8 @@ class CarriedWay:
         approach: (3,) m, world frame, where the transit ends (:attr:`Aim.approach`), or None.
         over: least height (m, world z) of the transit when it carries an object (:attr:`Aim.over`), or None.
         descent: the first piece comes straight down from ``approach`` (:attr:`Aim.descent`).
-        detour: ``approach`` is on the demonstrated last approach, reached over the objects the
-            demonstrated way would sweep (:attr:`Aim.detour`).
+        detour: ``approach`` is on the line of the demonstrated last approach, reached over the objects
+            the demonstrated way would sweep (:attr:`Aim.detour`).
         swept: those objects (:attr:`Aim.swept`).
         tilt: rad the hand is tilted on the detour (:attr:`Aim.tilt`).
     """
@@ -998,14 +999,22 @@ def _level(quat: np.ndarray) -> bool:
 
 
 def tilted(quat: np.ndarray, tilt: float) -> np.ndarray:
-    """(4,) xyzw: the hand turned ``quat`` (4,) xyzw pitched by ``tilt`` rad about the horizontal axis
-    across the way its fingers point, their tips down and the wrist up; the axis the fingers close on stays
-    in the vertical plane it was in (a level hand's stays level: a handle is held across as before)."""
+    """(4,) xyzw: the hand turned ``quat`` (4,) xyzw pitched by ``tilt`` rad (:func:`_pitch`), its
+    fingertips down and its wrist up; ``quat`` itself for no tilt."""
+    if tilt == 0.0:
+        return np.asarray(quat, float)
+    return (_pitch(quat, tilt) * Rotation.from_quat(quat)).as_quat()
+
+
+def _pitch(quat: np.ndarray, tilt: float) -> Rotation:
+    """The turn by ``tilt`` rad about the horizontal axis across the way the fingers of a hand turned
+    ``quat`` (4,) xyzw point (its own z axis) that turns them down; none for a hand pointing straight up or
+    down."""
     axis = Rotation.from_quat(quat).apply([0.0, 0.0, 1.0])
     across = np.cross([0.0, 0.0, 1.0], axis)
     if tilt == 0.0 or np.linalg.norm(across) < 1e-9:
-        return np.asarray(quat, float)
-    return (Rotation.from_rotvec(tilt * across / np.linalg.norm(across)) * Rotation.from_quat(quat)).as_quat()
+        return Rotation.identity()
+    return Rotation.from_rotvec(tilt * across / np.linalg.norm(across))
 
 
 def piece_goal(
@@ -1021,17 +1030,13 @@ def piece_goal(
     <taskcond.execution.skills.Segment.goal>` with ``target``, ``turn`` and ``scale``); a piece that lets go
     (relative, the hand open after it held something: the hand backing off a handle) of a one-arm skill
     whose hand a detour tilted by ``tilt`` rad (:attr:`Aim.tilt`) backs off along the tilted hand: its
-    displacement tilted with it (:func:`tilted`)."""
+    displacement pitched with the demonstrated hand (:func:`_pitch`)."""
     seg = skill.segments[k]
     goal = seg.goal(start, target, turn, scale)
     held = any(s.gripper >= 0.5 for s in skill.segments[:k])
     if tilt == 0.0 or seg.arms != 1 or seg.anchor != "relative" or seg.gripper >= 0.5 or not held:
         return goal
-    hand = Rotation.from_quat(seg.orientation(0.0, seg.orientations[0, :4], turn))
-    across = np.cross([0.0, 0.0, 1.0], hand.apply([0.0, 0.0, 1.0]))
-    if np.linalg.norm(across) < 1e-9:
-        return goal
-    pitch = Rotation.from_rotvec(tilt * across / np.linalg.norm(across))
+    pitch = _pitch(seg.orientation(0.0, seg.orientations[0, :4], turn), tilt)
     return np.asarray(start, float) + pitch.apply(goal - np.asarray(start, float))
 
 

@@ -193,7 +193,7 @@ class EventLog:
         place (a carry), from which the hand comes straight down, not the demonstrated start; ``over``: least
         height (m, world z) of the hand carrying its object to ``approach`` over what stands on the way, or
         None; ``swept``: the free objects the demonstrated way would have swept, when the hand went over
-        them to ``approach`` on the demonstrated last approach instead
+        them to ``approach`` on the line of the demonstrated last approach instead
         (:attr:`~taskcond.execution.approach.Aim.detour`); ``tilt``: rad the hand was tilted on it."""
         degrees = round(math.degrees(turn))
         way = _approach_note(approach, descent, parse_task(task).primitive.grasps, over, swept, tilt)
