@@ -428,18 +428,19 @@ class Approach:
     def _clear_way(self, g: TargetAim, turn: float, way: CarriedWay) -> CarriedWay:
         """The way of an empty-hand primitive that grasps nothing (an open, a close; ``g`` turned by ``turn``
         rad, going first by ``way``) clear of the free objects standing beside its target
-        (:func:`_bystanders`; issue 31). The demonstrated way (``way``'s transit, if any, and the skill's
-        pieces rolled out, :meth:`_pieces_way`) is kept when the whole arm passes at least
-        :data:`BYSTANDER_CLEARANCE` from each of them (:meth:`World.sweep
+        (:func:`_bystanders`; issue 31). The demonstrated approach (``way``'s transit, if any, and the
+        skill's pieces rolled out, :meth:`_pieces_way`, until the hand closes, :func:`_opened`: what a
+        hand holding a lid or a handle does next follows the hinge, not its plan) is kept when the whole arm
+        passes at least :data:`BYSTANDER_CLEARANCE` from each of them (:meth:`World.sweep
         <taskcond.execution.world.World.sweep>`: the wrist behind a hand turned to a drawer's handle sweeps
-        low over the table in front of it, where the hand itself never goes, on the way in and on the
-        pull). Else the hand goes over what stands on the way (:func:`_over_height`) to a point on the
-        line of the demonstrated last approach (:func:`_rejoins`), turned there as the first piece ends,
-        tilted by the least of :data:`TILTS` (:func:`tilted`: the wrist higher) from which the arm keeps
-        that far from all of them on the way there and through the whole skill (and from everything else on
-        the way there: a drawer open above the handle), and the first piece goes on straight
-        (:attr:`Aim.detour`); when none keeps that far, the one that keeps farthest, if it touches none;
-        else the demonstrated way is kept."""
+        low over the table in front of it, where the hand itself never goes). Else the hand goes over what
+        stands on the way (:func:`_over_height`) to a point on the line of the demonstrated last approach
+        (:func:`_rejoins`), turned there as the first piece ends, tilted by the least of :data:`TILTS`
+        (:func:`tilted`: the wrist higher) from which the arm keeps that far from all of them on the way
+        there and through the whole skill as planned (the pull, the hand backing off the handle; and from
+        everything else on the way there: a drawer open above the handle), and the first piece goes on
+        straight (:attr:`Aim.detour`); when none keeps that far, the one that keeps farthest, if it touches
+        none; else the demonstrated way is kept."""
         standing = _bystanders(g.target_name, g.obs)
         first = g.skill.segments[0]
         if not standing or g.skill.arms != 1:
@@ -449,8 +450,12 @@ class Approach:
         if way.approach is not None:
             start, quat = way.approach, start_orientation(first, here_q)
             head = self._transit_way(here, here_q, start, quat, way.over)
+        reach = (WAY_SAMPLES + 1) * _opened(g.skill)
         pieces = self._pieces_way(g, turn, start, quat, straight=False)
-        demonstrated = np.concatenate([head[0], pieces[0]]), np.concatenate([head[1], pieces[1]])
+        demonstrated = (
+            np.concatenate([head[0], pieces[0][:reach]]),
+            np.concatenate([head[1], pieces[1][:reach]]),
+        )
         swept = tuple(n for n in standing if self._sweep_of(*demonstrated, (n,), g.obs) < BYSTANDER_CLEARANCE)
         if not swept:
             return way
@@ -1038,6 +1043,12 @@ def piece_goal(
         return goal
     pitch = _pitch(seg.orientation(0.0, seg.orientations[0, :4], turn), tilt)
     return np.asarray(start, float) + pitch.apply(goal - np.asarray(start, float))
+
+
+def _opened(skill: Skill) -> int:
+    """The number of the skill's first pieces with the gripper open: its approach, before the hand takes
+    hold of anything."""
+    return next((k for k, seg in enumerate(skill.segments) if seg.gripper >= 0.5), len(skill.segments))
 
 
 def _bystanders(target: str, obs: Observation) -> list[str]:
