@@ -428,10 +428,10 @@ class Approach:
     def _clear_way(self, g: TargetAim, turn: float, way: CarriedWay) -> CarriedWay:
         """The way of an empty-hand primitive that grasps nothing (an open, a close; ``g`` turned by ``turn``
         rad, going first by ``way``) clear of the free objects standing beside its target
-        (:func:`_bystanders`; issue 31). The demonstrated approach (``way``'s transit, if any, and the
-        skill's pieces rolled out, :meth:`_pieces_way`, until the hand closes, :func:`_opened`: what a
-        hand holding a lid or a handle does next follows the hinge, not its plan) is kept when the whole arm
-        passes at least :data:`BYSTANDER_CLEARANCE` from each of them (:meth:`World.sweep
+        (:func:`_bystanders`; issue 31). The demonstrated way (``way``'s transit, if any, and the skill's
+        pieces rolled out, :meth:`_pieces_way`) is kept when the whole arm passes at least
+        :data:`BYSTANDER_CLEARANCE` from each of them (:meth:`_gaps`; :data:`HELD_CLEARANCE` farther once
+        the hand holds a lid or a handle, whose hinge it follows rather than the plan; :meth:`World.sweep
         <taskcond.execution.world.World.sweep>`: the wrist behind a hand turned to a drawer's handle sweeps
         low over the table in front of it, where the hand itself never goes). Else the hand goes over what
         stands on the way (:func:`_over_height`) to a point on the line of the demonstrated last approach
@@ -439,8 +439,10 @@ class Approach:
         (:func:`tilted`: the wrist higher) from which the arm keeps that far from all of them on the way
         there and through the whole skill as planned (the pull, the hand backing off the handle; and from
         everything else on the way there: a drawer open above the handle), and the first piece goes on
-        straight (:attr:`Aim.detour`); when none keeps that far, the one that keeps farthest, if it touches
-        none; else the demonstrated way is kept."""
+        straight (:attr:`Aim.detour`). When none keeps that far: the one that keeps farthest among those
+        whose approach keeps that far, if the demonstrated approach itself does not (it will hit), or if it
+        touches nothing (a plan of the held part alone is too uncertain for less); else the demonstrated
+        way is kept."""
         standing = _bystanders(g.target_name, g.obs)
         first = g.skill.segments[0]
         if not standing or g.skill.arms != 1:
@@ -452,17 +454,17 @@ class Approach:
             head = self._transit_way(here, here_q, start, quat, way.over)
         reach = (WAY_SAMPLES + 1) * _opened(g.skill)
         pieces = self._pieces_way(g, turn, start, quat, straight=False)
-        demonstrated = (
-            np.concatenate([head[0], pieces[0][:reach]]),
-            np.concatenate([head[1], pieces[1][:reach]]),
+        gaps = {n: self._gaps(head, pieces, reach, (n,), g.obs) for n in standing}
+        swept = tuple(
+            n for n, (a, held) in gaps.items() if min(a, held - HELD_CLEARANCE) < BYSTANDER_CLEARANCE
         )
-        swept = tuple(n for n in standing if self._sweep_of(*demonstrated, (n,), g.obs) < BYSTANDER_CLEARANCE)
         if not swept:
             return way
         end_q = first.orientation(1.0, here_q, turn)
         goal = first.goal(g.target, g.target, turn, g.scale)
         pad = self.config.hand[0] + CARRY_MARGIN
-        best, best_gap = way, 0.0
+        hits = any(a < BYSTANDER_CLEARANCE for a, _ in gaps.values())
+        best, best_gap = way, -math.inf if hits else 0.0
         for tilt in TILTS if _level(end_q) else TILTS[:1]:
             quat = tilted(end_q, tilt)
             for point in _rejoins(first, goal, turn):
@@ -470,10 +472,12 @@ class Approach:
                     continue
                 over = _over_height(here, point, g.obs, (g.target_name, *self.world.arms), pad) + CARRY_MARGIN
                 head = self._transit_way(here, here_q, point, quat, over)
-                pieces = self._pieces_way(g, turn, point, quat, True, tilt)
-                detour = np.concatenate([head[0], pieces[0]]), np.concatenate([head[1], pieces[1]])
-                gap = min(self._sweep_of(*detour, standing, g.obs), self.world.sweep(*head, (g.target_name,)))
-                if gap > best_gap:
+                a, held = self._gaps(
+                    head, self._pieces_way(g, turn, point, quat, True, tilt), reach, standing, g.obs
+                )
+                a = min(a, self.world.sweep(*head, (g.target_name,)))
+                gap = min(a, held - HELD_CLEARANCE)
+                if a >= BYSTANDER_CLEARANCE and gap > best_gap:
                     best, best_gap = CarriedWay(point, over, False, True, swept, tilt), gap
                 if gap >= BYSTANDER_CLEARANCE:
                     return best
@@ -513,6 +517,24 @@ class Approach:
             )
             start, quat = goal, quats[-1][-1]
         return np.concatenate(points), np.concatenate(quats)
+
+    def _gaps(
+        self,
+        head: tuple[np.ndarray, np.ndarray],
+        pieces: tuple[np.ndarray, np.ndarray],
+        reach: int,
+        names: Sequence[str],
+        obs: Observation,
+    ) -> tuple[float, float]:
+        """Least distances (m) of the arm from the objects ``names`` along a transit ``head`` and the first
+        ``reach`` points of a skill's ``pieces`` (:meth:`_pieces_way`; each positions (m, 3) and orientations
+        (m, 4) xyzw): the approach (:func:`_opened`); and along the rest, where the hand holds a handle or a
+        lid and follows its hinge rather than the plan (:data:`HELD_CLEARANCE`); 0.05 for none."""
+        approach = np.concatenate([head[0], pieces[0][:reach]]), np.concatenate([head[1], pieces[1][:reach]])
+        held = SWEEP_NONE
+        if reach < len(pieces[0]):
+            held = self._sweep_of(pieces[0][reach:], pieces[1][reach:], names, obs)
+        return self._sweep_of(*approach, names, obs), held
 
     def _sweep_of(
         self, points: np.ndarray, quats: np.ndarray, names: Sequence[str], obs: Observation
@@ -983,6 +1005,12 @@ BYSTANDER_CLEARANCE = 0.01
 """Least distance (m) between the arm and a free object standing beside the target (:func:`_bystanders`)
 on the way of an empty-hand primitive that grasps nothing, below which the hand goes another way
 (:meth:`Approach._clear_way`): the arm lags its commands, and what it brushes may fall."""
+HELD_CLEARANCE = 0.02
+"""Room (m) beyond :data:`BYSTANDER_CLEARANCE` that the planned way of a hand holding a handle or a lid keeps
+from a free object beside it (:meth:`Approach._clear_way`): the hand follows the hinge, not its plan."""
+SWEEP_NONE = 0.05
+"""The distance (m) :meth:`Approach._gaps` reports for a part of a way that has no points (at most what
+:meth:`World.sweep <taskcond.execution.world.World.sweep>` reports)."""
 REJOIN_BACK = (0.12, 0.09, 0.06, 0.18, 0.24)
 """Distances (m) back from the first piece's goal along its demonstrated last approach at which a way clear
 of the free objects beside the target may join it (:func:`_rejoins`), in the order tried: the last approach
