@@ -356,3 +356,36 @@ def test_a_slender_object_is_let_go_into_the_mug_with_the_fingertips_above_its_r
         assert np.linalg.norm(obs.centers["mug"][:2] - mug[:2]) < 0.01
     finally:
         env.close()
+
+
+def test_an_open_goes_over_a_bystander_its_demonstrated_way_would_sweep_and_leaves_it_standing() -> None:
+    """Issue 31: the can stands in front of the bottom drawer, where the demonstrated opening's arm sweeps
+    low (the wrist behind the hand turned level to the handle, on the way in, on the pull, and the open
+    hand backing off the handle). The executor sees it in the planned way (World.sweep), goes over it to
+    the demonstrated last approach with the hand tilted, and the drawer opens with the can standing where
+    it stood; the trace names the can and the tilt. Replayed as demonstrated, the arm knocks it over."""
+    library = learn_library(None, ["open-bottom_drawer"])
+    away = {"bottle": (0.30, -0.30), "bowl": (0.35, -0.15), "mug": (0.45, -0.40), "cube": (0.45, -0.10)}
+    for detour in (True, False):
+        env, world = _scene(
+            {"can": (0.26, 0.37), "toothpaste": (0.30, -0.42), "spatula": (0.25, -0.45)} | away
+        )
+        try:
+            can = world.observe().centers["can"]
+            executor = Executor(world, library, method="env", source=EnvConditions(library))
+            if not detour:
+                executor._clear_way = lambda g, turn, way: way  # the demonstrated way
+            result = executor.run(["open bottom drawer"])
+            obs = world.observe()
+            assert result.completed and obs.holds(ContainerState("bottom drawer", True))
+            if detour:
+                (aim,) = [e for e in result.events if e.kind == "primitive"]
+                assert aim.data["approach_kind"] == "detour clear of bystanders" and aim.data["swept"] == [
+                    "can"
+                ]
+                assert aim.data["tilt_degrees"] > 0
+                assert "can" not in obs.lying and np.linalg.norm(obs.centers["can"][:2] - can[:2]) < 0.01
+            else:
+                assert "can" in obs.lying
+        finally:
+            env.close()

@@ -33,6 +33,7 @@ from taskcond.execution.skills import (
     offset_scale,
     target_object,
     turned,
+    twin_turn,
 )
 from taskcond.execution.world import Observation, World
 from taskcond.primitives import HandApproach, parse_task
@@ -47,15 +48,20 @@ MIN_SCALED = 0.01
 """Least demonstrated displacement (m) of a piece's dimension for Eq. 2's scaling of its forcing term."""
 
 
-def _conditioned(seg: Segment, start: np.ndarray, goal: np.ndarray, descent: bool = False) -> DMPParameters:
+def _conditioned(
+    seg: Segment, start: np.ndarray, goal: np.ndarray, descent: bool = False, straight: bool = False
+) -> DMPParameters:
     """The piece's DMP for a movement from ``start`` to ``goal`` (3,): Eq. 2's scaled forcing term where
     the new offset ``goal − start`` keeps the demonstrated sign and at most :data:`MAX_STRETCH` times its
     size, the unscaled term elsewhere (:meth:`DMPParameters.unscaled`), so that a demonstration is never
     replayed mirrored or blown up; a dimension the demonstration hardly moved (less than
     :data:`MIN_SCALED`) is always unscaled, so that a millimetre more or less of offset does not switch
     its demonstrated excursion on or off. A ``descent`` (:attr:`Aim.descent`) keeps no horizontal forcing
-    term: the hand comes straight down onto its goal, whatever way the demonstration came in sideways."""
+    term: the hand comes straight down onto its goal, whatever way the demonstration came in sideways. A
+    ``straight`` piece (:attr:`Aim.detour`) keeps none at all: a straight line to its goal."""
     dmp = seg.dmp
+    if straight:
+        return dmp.unforced(np.ones(dmp.n_dims, dtype=bool))
     if descent:
         dmp = dmp.unforced(np.tile([True, True, False], dmp.n_dims // 3))
     demo = dmp.goal - dmp.y0
@@ -85,7 +91,7 @@ class Aim:
             the skill's demonstrated start relative to the target, or with ``descent`` the pre-grasp pose
             above the grasp point (:meth:`Approach._pregrasp`); None to start where it is.
         over: least height (m, world z) of the hand on its way to ``approach`` when it carries an object
-            (:func:`_carry_height`); None for an empty hand.
+            (:func:`_carry_height`) or takes a ``detour`` (:func:`_over_height`); None otherwise.
         scale: (3,) factors on the target-anchored piece's demonstrated offset per world axis
             (:func:`~taskcond.execution.skills.offset_scale`): a grasp borrowed from an object of another
             size closes at the same place relative to the perceived box; ones as demonstrated.
@@ -99,6 +105,15 @@ class Aim:
         hold: the hand keeps its heading through the skill (:meth:`Segment.orientation
             <taskcond.execution.skills.Segment.orientation>`'s ``hold``; the transit too): a carry of a
             round object by a hand with :attr:`~taskcond.execution.config.Hand.round_carry_holds`.
+        detour: the demonstrated way of an empty-hand primitive that grasps nothing (an open, a close)
+            would sweep the arm through a free object standing beside it (:meth:`Approach._clear_way`,
+            issue 31): the hand went over what stands on the way to ``approach``, a point on the line of
+            the demonstrated last approach to the first piece's goal, turned as it arrives there (and
+            ``tilt``), and the first piece goes on straight (its forcing term off, :func:`_conditioned`)
+            holding that heading.
+        swept: the free objects the demonstrated way would have swept (with ``detour``); empty otherwise.
+        tilt: rad by which the hand arrives at ``approach`` on a ``detour`` tilted (:func:`tilted`), its
+            wrist higher; the later pieces keep it.
     """
 
     task: str
@@ -113,6 +128,9 @@ class Aim:
     choice: str = ""
     descent: bool = False
     hold: bool = False
+    detour: bool = False
+    swept: tuple[str, ...] = ()
+    tilt: float = 0.0
 
     @property
     def arms(self) -> int:
@@ -152,11 +170,18 @@ class CarriedWay:
         approach: (3,) m, world frame, where the transit ends (:attr:`Aim.approach`), or None.
         over: least height (m, world z) of the transit when it carries an object (:attr:`Aim.over`), or None.
         descent: the first piece comes straight down from ``approach`` (:attr:`Aim.descent`).
+        detour: ``approach`` is on the line of the demonstrated last approach, reached over the objects
+            the demonstrated way would sweep (:attr:`Aim.detour`).
+        swept: those objects (:attr:`Aim.swept`).
+        tilt: rad the hand is tilted on the detour (:attr:`Aim.tilt`).
     """
 
     approach: np.ndarray | None
     over: float | None
     descent: bool
+    detour: bool = False
+    swept: tuple[str, ...] = ()
+    tilt: float = 0.0
 
 
 class Approach:
@@ -324,9 +349,17 @@ class Approach:
         way = CarriedWay(approach, None, descent)
         if carry and target is not None:
             way = self._carried_way(task, skill, target + aside, approach, obs, here)
+        if (
+            aiming is not None
+            and parsed.primitive.approach is HandApproach.EMPTY_HAND
+            and not grasp
+            and not retry
+        ):
+            way = self._clear_way(aiming, turn, way)
         placed = (task, skill, target_name, None if target is None else target + aside, turn, aside)
         hold = carry and self.hand.round_carry_holds and parsed.objects[0] in obs.round
-        return Aim(*placed, way.approach, way.over, scale, choice.reason, way.descent, hold)
+        steer = (way.descent, hold, way.detour, way.swept, way.tilt)
+        return Aim(*placed, way.approach, way.over, scale, choice.reason, *steer)
 
     def _carry_aside(
         self, task: str, skill: Skill, target: np.ndarray, obs: Observation, here: np.ndarray
@@ -391,6 +424,125 @@ class Approach:
         if approach is None:
             return CarriedWay(None, None, False)
         return CarriedWay(approach, _carry_height(held, here, approach, obs, self.world.arms), descent)
+
+    def _clear_way(self, g: TargetAim, turn: float, way: CarriedWay) -> CarriedWay:
+        """The way of an empty-hand primitive that grasps nothing (an open, a close; ``g`` turned by ``turn``
+        rad, going first by ``way``) clear of the free objects standing beside its target
+        (:func:`_bystanders`; issue 31). The demonstrated way (``way``'s transit, if any, and the skill's
+        pieces rolled out, :meth:`_pieces_way`) is kept when the whole arm passes at least
+        :data:`BYSTANDER_CLEARANCE` from each of them (:meth:`_gaps`; :data:`HELD_CLEARANCE` farther once
+        the hand holds a lid or a handle, whose hinge it follows rather than the plan; :meth:`World.sweep
+        <taskcond.execution.world.World.sweep>`: the wrist behind a hand turned to a drawer's handle sweeps
+        low over the table in front of it, where the hand itself never goes). Else the hand goes over what
+        stands on the way (:func:`_over_height`) to a point on the line of the demonstrated last approach
+        (:func:`_rejoins`), turned there as the first piece ends, tilted by the least of :data:`TILTS`
+        (:func:`tilted`: the wrist higher) from which the arm keeps that far from all of them on the way
+        there and through the whole skill as planned (the pull, the hand backing off the handle; and from
+        everything else on the way there: a drawer open above the handle), and the first piece goes on
+        straight (:attr:`Aim.detour`). When none keeps that far: the one that keeps farthest among those
+        whose approach keeps that far, if the demonstrated approach itself does not (it will hit), or if it
+        touches nothing (a plan of the held part alone is too uncertain for less); else the demonstrated
+        way is kept."""
+        standing = _bystanders(g.target_name, g.obs)
+        first = g.skill.segments[0]
+        if not standing or g.skill.arms != 1:
+            return way
+        here, here_q = self.world.ee_pose()
+        start, quat, head = here, here_q, (np.zeros((0, 3)), np.zeros((0, 4)))
+        if way.approach is not None:
+            start, quat = way.approach, start_orientation(first, here_q)
+            head = self._transit_way(here, here_q, start, quat, way.over)
+        reach = (WAY_SAMPLES + 1) * _opened(g.skill)
+        pieces = self._pieces_way(g, turn, start, quat, straight=False)
+        gaps = {n: self._gaps(head, pieces, reach, (n,), g.obs) for n in standing}
+        swept = tuple(
+            n for n, (a, held) in gaps.items() if min(a, held - HELD_CLEARANCE) < BYSTANDER_CLEARANCE
+        )
+        if not swept:
+            return way
+        end_q = first.orientation(1.0, here_q, turn)
+        goal = first.goal(g.target, g.target, turn, g.scale)
+        pad = self.config.hand[0] + CARRY_MARGIN
+        hits = any(a < BYSTANDER_CLEARANCE for a, _ in gaps.values())
+        best, best_gap = way, -math.inf if hits else 0.0
+        for tilt in TILTS if _level(end_q) else TILTS[:1]:
+            quat = tilted(end_q, tilt)
+            for point in _rejoins(first, goal, turn):
+                if self.world.reach_error(point) is not None:
+                    continue
+                over = _over_height(here, point, g.obs, (g.target_name, *self.world.arms), pad) + CARRY_MARGIN
+                head = self._transit_way(here, here_q, point, quat, over)
+                a, held = self._gaps(
+                    head, self._pieces_way(g, turn, point, quat, True, tilt), reach, standing, g.obs
+                )
+                a = min(a, self.world.sweep(*head, (g.target_name,)))
+                gap = min(a, held - HELD_CLEARANCE)
+                if a >= BYSTANDER_CLEARANCE and gap > best_gap:
+                    best, best_gap = CarriedWay(point, over, False, True, swept, tilt), gap
+                if gap >= BYSTANDER_CLEARANCE:
+                    return best
+        return best
+
+    def _transit_way(
+        self, here: np.ndarray, here_q: np.ndarray, goal: np.ndarray, quat: np.ndarray, over: float | None
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Every :data:`TRANSIT_EVERY`-th position (m, 3) and orientation (m, 4) xyzw of a transit
+        (:meth:`_transit`) from ``here`` turned ``here_q`` to ``goal`` turned ``quat``, at least ``over``
+        high."""
+        path = self._transit_path(here, goal, over)
+        return path[::TRANSIT_EVERY], self._transit_orientations(here_q, quat, len(path))[::TRANSIT_EVERY]
+
+    def _pieces_way(
+        self,
+        g: TargetAim,
+        turn: float,
+        start: np.ndarray,
+        quat: np.ndarray,
+        straight: bool,
+        tilt: float = 0.0,
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Positions (m, 3) and orientations (m, 4) xyzw of the hand through every piece of ``g``'s skill
+        (turned by ``turn`` rad) from ``start`` (3,) m turned ``quat`` (4,) xyzw, :data:`WAY_SAMPLES` per
+        piece, each piece from the last one's goal as :meth:`Executor._follow
+        <taskcond.execution.executor.Executor._follow>` plans it (:func:`piece_goal`, ``tilt`` rad); with
+        ``straight`` the first piece is a straight line holding ``quat`` (:attr:`Aim.detour`)."""
+        points, quats, fractions = [], [], np.linspace(0.0, 1.0, WAY_SAMPLES + 1)
+        for k, seg in enumerate(g.skill.segments):
+            goal = piece_goal(g.skill, k, start, g.target, turn, g.scale, tilt)
+            line = straight and k == 0
+            dmp = _conditioned(seg, start, goal, straight=line)
+            points.append(rollout(dmp, start, goal, n_steps=WAY_SAMPLES).positions[:, :3])
+            quats.append(
+                np.tile(quat, (len(fractions), 1)) if line else seg.orientation(fractions, quat, turn)
+            )
+            start, quat = goal, quats[-1][-1]
+        return np.concatenate(points), np.concatenate(quats)
+
+    def _gaps(
+        self,
+        head: tuple[np.ndarray, np.ndarray],
+        pieces: tuple[np.ndarray, np.ndarray],
+        reach: int,
+        names: Sequence[str],
+        obs: Observation,
+    ) -> tuple[float, float]:
+        """Least distances (m) of the arm from the objects ``names`` along a transit ``head`` and the first
+        ``reach`` points of a skill's ``pieces`` (:meth:`_pieces_way`; each positions (m, 3) and orientations
+        (m, 4) xyzw): the approach (:func:`_opened`); and along the rest, where the hand holds a handle or a
+        lid and follows its hinge rather than the plan (:data:`HELD_CLEARANCE`); 0.05 for none."""
+        approach = np.concatenate([head[0], pieces[0][:reach]]), np.concatenate([head[1], pieces[1][:reach]])
+        held = SWEEP_NONE
+        if reach < len(pieces[0]):
+            held = self._sweep_of(pieces[0][reach:], pieces[1][reach:], names, obs)
+        return self._sweep_of(*approach, names, obs), held
+
+    def _sweep_of(
+        self, points: np.ndarray, quats: np.ndarray, names: Sequence[str], obs: Observation
+    ) -> float:
+        """:meth:`World.sweep <taskcond.execution.world.World.sweep>` of the arm along ``points`` (m, 3)
+        with ``quats`` (m, 4) xyzw against the perceived objects ``names`` only."""
+        ignore = tuple(n for n in obs.boxes if n not in names)
+        return self.world.sweep(points, quats, ignore)
 
     def _turnable(self, target_name: str, obs: Observation) -> bool:
         """Whether a grasp of ``target_name`` may come from another side (:meth:`_turn`): a round object,
@@ -825,19 +977,137 @@ def _carry_height(
     held: str, here: np.ndarray, goal: np.ndarray, obs: Observation, arms: Sequence[str]
 ) -> float:
     """The least height (m, world z) of the hand carrying ``held`` from ``here`` to ``goal`` (each
-    (3,) m) over everything whose bounding box the straight way passes near (within half the held
-    object's width and :data:`CARRY_MARGIN`), except a surface under the whole way (the table): their
-    highest top plus the height of the hand above the held object's bottom plus :data:`CARRY_MARGIN`."""
+    (3,) m) over everything whose bounding box the straight way passes near (:func:`_over_height`, within
+    half the held object's width and :data:`CARRY_MARGIN`): their highest top plus the height of the hand
+    above the held object's bottom plus :data:`CARRY_MARGIN`."""
     lower, upper = obs.boxes[held]
     pad = float(np.max(upper[:2] - lower[:2])) / 2 + CARRY_MARGIN
+    return _over_height(here, goal, obs, (held, *arms), pad) + float(here[2] - lower[2]) + CARRY_MARGIN
+
+
+def _over_height(
+    here: np.ndarray, goal: np.ndarray, obs: Observation, skip: Sequence[str], pad: float
+) -> float:
+    """The highest top (m, world z) of the perceived boxes but ``skip`` that the straight way from ``here``
+    to ``goal`` (each (3,) m) passes within ``pad`` (m) of horizontally, except a surface under the whole
+    way (the table); 0 when it passes none."""
     way = here[:2] + np.linspace(0.0, 1.0, 25)[:, None] * (goal[:2] - here[:2])
     tops = []
     for name, (lo, hi) in obs.boxes.items():
         near = np.all((way > lo[:2] - pad) & (way < hi[:2] + pad), axis=1)
         under = np.all((way > lo[:2]) & (way < hi[:2]))
-        if name not in (held, *arms) and near.any() and not under:
+        if name not in skip and near.any() and not under:
             tops.append(float(hi[2]))
-    return max(tops, default=0.0) + float(here[2] - lower[2]) + CARRY_MARGIN
+    return max(tops, default=0.0)
+
+
+BYSTANDER_CLEARANCE = 0.01
+"""Least distance (m) between the arm and a free object standing beside the target (:func:`_bystanders`)
+on the way of an empty-hand primitive that grasps nothing, below which the hand goes another way
+(:meth:`Approach._clear_way`): the arm lags its commands, and what it brushes may fall."""
+HELD_CLEARANCE = 0.02
+"""Room (m) beyond :data:`BYSTANDER_CLEARANCE` that the planned way of a hand holding a handle or a lid keeps
+from a free object beside it (:meth:`Approach._clear_way`): the hand follows the hinge, not its plan."""
+SWEEP_NONE = 0.05
+"""The distance (m) :meth:`Approach._gaps` reports for a part of a way that has no points (at most what
+:meth:`World.sweep <taskcond.execution.world.World.sweep>` reports)."""
+REJOIN_BACK = (0.12, 0.09, 0.06, 0.18, 0.24)
+"""Distances (m) back from the first piece's goal along its demonstrated last approach at which a way clear
+of the free objects beside the target may join it (:func:`_rejoins`), in the order tried: the last approach
+to a drawer's handle is 12 cm straight in (nearer than 6 cm the open fingers would come down onto the
+handle); farther back, the hand comes in under a drawer open above it."""
+REJOIN_LAST = 0.03
+"""Length (m) of the end of the first piece's demonstrated way whose direction is its last approach."""
+
+
+TILTS = (0.0, math.pi / 12, math.pi / 6, math.pi / 4)
+"""Tilts (rad, least first) of a level hand on a detour (:meth:`Approach._clear_way`, :func:`tilted`)."""
+
+
+def _level(quat: np.ndarray) -> bool:
+    """Whether the hand turned ``quat`` (4,) xyzw points more sideways than down or up (its own z axis, the
+    way its fingers point, within 45° of horizontal): a hand turned to a drawer's handle."""
+    axis = Rotation.from_quat(quat).apply([0.0, 0.0, 1.0])
+    return bool(np.linalg.norm(axis[:2]) > math.sqrt(0.5))
+
+
+def tilted(quat: np.ndarray, tilt: float) -> np.ndarray:
+    """(4,) xyzw: the hand turned ``quat`` (4,) xyzw pitched by ``tilt`` rad (:func:`_pitch`), its
+    fingertips down and its wrist up; ``quat`` itself for no tilt."""
+    if tilt == 0.0:
+        return np.asarray(quat, float)
+    return (_pitch(quat, tilt) * Rotation.from_quat(quat)).as_quat()
+
+
+def _pitch(quat: np.ndarray, tilt: float) -> Rotation:
+    """The turn by ``tilt`` rad about the horizontal axis across the way the fingers of a hand turned
+    ``quat`` (4,) xyzw point (its own z axis) that turns them down; none for a hand pointing straight up or
+    down."""
+    axis = Rotation.from_quat(quat).apply([0.0, 0.0, 1.0])
+    across = np.cross([0.0, 0.0, 1.0], axis)
+    if tilt == 0.0 or np.linalg.norm(across) < 1e-9:
+        return Rotation.identity()
+    return Rotation.from_rotvec(tilt * across / np.linalg.norm(across))
+
+
+def piece_goal(
+    skill: Skill,
+    k: int,
+    start: np.ndarray,
+    target: np.ndarray | None,
+    turn: float = 0.0,
+    scale: np.ndarray | None = None,
+    tilt: float = 0.0,
+) -> np.ndarray:
+    """Goal (3k,) m of the ``k``-th piece of ``skill`` started at ``start`` (3k,) m (:meth:`Segment.goal
+    <taskcond.execution.skills.Segment.goal>` with ``target``, ``turn`` and ``scale``); a piece that lets go
+    (relative, the hand open after it held something: the hand backing off a handle) of a one-arm skill
+    whose hand a detour tilted by ``tilt`` rad (:attr:`Aim.tilt`) backs off along the tilted hand: its
+    displacement pitched with the demonstrated hand (:func:`_pitch`)."""
+    seg = skill.segments[k]
+    goal = seg.goal(start, target, turn, scale)
+    held = any(s.gripper >= 0.5 for s in skill.segments[:k])
+    if tilt == 0.0 or seg.arms != 1 or seg.anchor != "relative" or seg.gripper >= 0.5 or not held:
+        return goal
+    pitch = _pitch(seg.orientation(0.0, seg.orientations[0, :4], turn), tilt)
+    return np.asarray(start, float) + pitch.apply(goal - np.asarray(start, float))
+
+
+def _opened(skill: Skill) -> int:
+    """The number of the skill's first pieces with the gripper open: its approach, before the hand takes
+    hold of anything."""
+    return next((k for k, seg in enumerate(skill.segments) if seg.gripper >= 0.5), len(skill.segments))
+
+
+def _bystanders(target: str, obs: Observation) -> list[str]:
+    """The free objects but ``target`` that are not flat
+    (:attr:`~taskcond.execution.world.Observation.shapes`) and have not fallen: what an arm brushing past
+    may knock over (the mug too, wider than high with its handle)."""
+    return [n for n in obs.shapes if n != target and n not in obs.lying and obs.shapes[n] != "flat"]
+
+
+def _rejoins(first: Segment, goal: np.ndarray, turn: float) -> list[np.ndarray]:
+    """(3,) m, world frame: the points :data:`REJOIN_BACK` back from ``goal`` (3,) m, the first piece's
+    goal, against the direction of its demonstrated last approach (its way's last :data:`REJOIN_LAST`,
+    turned by ``turn`` rad); none when the demonstration ends without moving."""
+    dmp = first.dmp
+    path = rollout(dmp, dmp.y0, dmp.goal, n_steps=200).positions[:, :3]
+    back = np.linalg.norm(path - path[-1], axis=1)
+    before = np.nonzero(back >= REJOIN_LAST)[0]
+    if not len(before):
+        return []
+    way = turned(path[-1] - path[before[-1]], turn)
+    way = way / np.linalg.norm(way)
+    return [np.asarray(goal, float) - length * way for length in REJOIN_BACK]
+
+
+def start_orientation(first: Segment, here: np.ndarray) -> np.ndarray:
+    """(4,) xyzw: the orientation the demonstration of ``first`` started in, or its twin half a turn about
+    the hand's axis (:func:`~taskcond.execution.skills.twin_turn`), whichever is nearer the hand's
+    ``here`` (4,) xyzw: where the transit of an open or close turns the hand (it turns to the handle on the
+    way)."""
+    start = Rotation.from_quat(first.orientations[0, :4])
+    return (start * twin_turn(start, Rotation.from_quat(here))).as_quat()
 
 
 def _support_below(obj: str, obs: Observation, arms: Sequence[str]) -> float | None:

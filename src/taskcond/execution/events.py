@@ -181,6 +181,8 @@ class EventLog:
         scale: np.ndarray | None = None,
         descent: bool = False,
         over: float | None = None,
+        swept: Sequence[str] = (),
+        tilt: float = 0.0,
     ) -> None:
         """``turn``: rad the demonstration is turned about the target's vertical axis (a grasp from
         another side); ``aside``: (3,) m the place was moved from the demonstrated spot; each reported only
@@ -190,9 +192,11 @@ class EventLog:
         ``descent``: ``approach`` is a pre-grasp pose above the grasp point (a grasp) or a pose above the
         place (a carry), from which the hand comes straight down, not the demonstrated start; ``over``: least
         height (m, world z) of the hand carrying its object to ``approach`` over what stands on the way, or
-        None."""
+        None; ``swept``: the free objects the demonstrated way would have swept, when the hand went over
+        them to ``approach`` on the line of the demonstrated last approach instead
+        (:attr:`~taskcond.execution.approach.Aim.detour`); ``tilt``: rad the hand was tilted on it."""
         degrees = round(math.degrees(turn))
-        way = _approach_note(approach, descent, parse_task(task).primitive.grasps, over)
+        way = _approach_note(approach, descent, parse_task(task).primitive.grasps, over, swept, tilt)
         moved = aside is not None and bool(np.any(aside))
         scaled = scale is not None and not np.allclose(scale, 1.0)
         self.emit(
@@ -302,12 +306,31 @@ __all__ = ["Event", "EventLog", "fmt_items", "fmt_vector", "json_vector"]
 
 
 def _approach_note(
-    approach: np.ndarray | None, descent: bool, grasp: bool, over: float | None
+    approach: np.ndarray | None,
+    descent: bool,
+    grasp: bool,
+    over: float | None,
+    swept: Sequence[str] = (),
+    tilt: float = 0.0,
 ) -> tuple[str, dict[str, Any]]:
     """The part of a primitive's event (:meth:`EventLog.primitive`) that says which approach the hand took:
-    text for the message and entries for its data (``approach``, ``approach_kind``, ``carried_over``)."""
+    text for the message and entries for its data (``approach``, ``approach_kind``, ``carried_over``, and
+    for a detour ``swept``, ``over`` and ``tilt_degrees``)."""
     if approach is None:
         return "", {}
+    if swept:
+        text = (
+            f", over what stands on the way (its demonstrated way would sweep the arm through "
+            f"{fmt_items(swept)}) at z >= {over or 0.0:.3f} m to {fmt_vector(approach)} on its last "
+            f"approach, the hand tilted {round(math.degrees(tilt))}°, straight in from there"
+        )
+        return text, {
+            "approach": json_vector(approach),
+            "approach_kind": "detour clear of bystanders",
+            "swept": list(swept),
+            "over": round(float(over or 0.0), 4),
+            "tilt_degrees": round(math.degrees(tilt)),
+        }
     kind = ("pre-grasp", "pre-grasp pose") if grasp else ("place", "place")
     text = (
         f", straight down from a {kind[1]} above it at {fmt_vector(approach)}"

@@ -58,7 +58,6 @@ from enum import StrEnum
 from typing import Protocol
 
 import numpy as np
-from scipy.spatial.transform import Rotation
 
 from taskcond.conditions import (
     ContainerState,
@@ -70,7 +69,7 @@ from taskcond.conditions import (
     is_gripper,
 )
 from taskcond.dmp import DMPRollout
-from taskcond.execution.approach import Aim, Approach, _conditioned
+from taskcond.execution.approach import Aim, Approach, _conditioned, piece_goal, start_orientation, tilted
 from taskcond.execution.collisions import CollisionMonitor
 from taskcond.execution.config import PANDA_HAND, ExecutionConfig, Hand
 from taskcond.execution.events import Event, EventLog, fmt_items, fmt_vector
@@ -80,7 +79,6 @@ from taskcond.execution.planner import applicable
 from taskcond.execution.skills import (
     Segment,
     SkillLibrary,
-    twin_turn,
 )
 from taskcond.execution.world import Observation, Touch, World
 from taskcond.primitives import TaskNameError, parse_task, task_for_condition
@@ -369,17 +367,18 @@ class Executor(Approach):
             aim.scale,
             aim.descent,
             aim.over,
+            aim.swept if aim.detour else (),
+            aim.tilt,
         )
         if aim.approach is not None:
             first = aim.skill.segments[0]
             here_q = self.world.ee_pose()[1]
             if aim.hold:  # a round object carried: the hand keeps its heading
                 orientation = here_q
-            elif parse_task(task).primitive.grasps:  # the hand pointing down as it will grasp
-                orientation = first.orientation(1.0, here_q, aim.turn)
+            elif parse_task(task).primitive.grasps or aim.detour:  # turned as it will arrive at the goal
+                orientation = tilted(first.orientation(1.0, here_q, aim.turn), aim.tilt)
             else:  # as the demonstration started: an open's hand turns to the handle on the way
-                start = Rotation.from_quat(first.orientations[0, :4])
-                orientation = (start * twin_turn(start, Rotation.from_quat(here_q))).as_quat()
+                orientation = start_orientation(first, here_q)
             self._transit(aim.approach, orientation, first.gripper, aim.over)
         adjustments, planned = 0, None
         track = None
@@ -423,16 +422,22 @@ class Executor(Approach):
             ExecutionError: the piece's goal is out of reach, or the simulation fails.
         """
         start, start_q = self.world.ee_pose(aim.arms)
-        goal = seg.goal(start if planned is None else planned, aim.target, aim.turn, aim.scale)
+        k = aim.skill.segments.index(seg)
+        goal = piece_goal(
+            aim.skill, k, start if planned is None else planned, aim.target, aim.turn, aim.scale, aim.tilt
+        )
         reason = self.world.reach_error(goal)
         if reason is not None:
             raise ExecutionError(
                 f"goal {fmt_vector(goal)} of {aim.task!r} is out of reach: {reason}", FailureKind.UNREACHABLE
             )
-        rollout = self._gen_dmp(seg, start, goal, aim.descent and seg is aim.skill.segments[0])
+        first = seg is aim.skill.segments[0]
+        rollout = self._gen_dmp(seg, start, goal, aim.descent and first, aim.detour and first)
         self._tell(rollout, goal, monitor, seg.gripper >= 0.5)
         n = max(1, math.ceil(rollout.tau / self.world.dt - 1e-9))
         orientations = seg.orientation(np.arange(n + 1) / n, start_q, aim.turn, aim.hold)
+        if aim.detour and first:  # turned on the detour as the piece ends: it keeps that heading
+            orientations = np.tile(start_q, (n + 1, 1))
         k = made = 0
         while k < n:
             position, _ = rollout.step(self.world.dt)
@@ -462,15 +467,20 @@ class Executor(Approach):
             rollout.set_goal(rollout.goal + np.tile(track.add(centre), arms))
 
     def _gen_dmp(
-        self, seg: Segment, start: np.ndarray, goal: np.ndarray, descent: bool = False
+        self, seg: Segment, start: np.ndarray, goal: np.ndarray, descent: bool = False, straight: bool = False
     ) -> DMPRollout:
         """Alg. 2 line 5 (GenDMP): the piece's rollout from ``start`` to ``goal`` ((3k,) m, world frame),
         slowed for a longer approach than demonstrated (:meth:`_duration`), its forcing term never mirrored
         or blown up (:func:`_conditioned`; straight down for the open piece of an object-centred grasp,
-        ``descent``), keeping the past points line 10 backs up to."""
+        ``descent``; a straight line for the first piece after a detour, ``straight``,
+        :attr:`~taskcond.execution.approach.Aim.detour`), keeping the past points line 10 backs up to."""
         tau = self._duration(seg, start, goal)
         return DMPRollout(
-            _conditioned(seg, start, goal, descent), start, goal, tau=tau, history=self.config.backup_points
+            _conditioned(seg, start, goal, descent, straight),
+            start,
+            goal,
+            tau=tau,
+            history=self.config.backup_points,
         )
 
     def _adjust(
