@@ -545,10 +545,11 @@ class Executor(Approach):
         a contact (the contact lies under a fingertip, beside the end effector's goal), and a sideways
         goal only moves the fingers along the table to grip the object elsewhere (issue 32: robosuite's
         square nut at σ = 20 mm, gripped by another part and set beside its peg). The goal goes up
-        instead, to :attr:`ExecutionConfig.clearance` above the end effector's height at the contact (the
-        hand reached no lower there), at least that clearance and at most
-        :attr:`ExecutionConfig.max_goal_shift` up. A container's rim below the goal is no ground, so a
-        move into a container keeps the horizontal rule (module doc). None for every other contact.
+        instead, by ``max(0, hand − goal) + clearance`` (heights, m; :attr:`ExecutionConfig.clearance`): to
+        the clearance above the end effector's height at the contact (the hand reached no lower there), or
+        above the goal if the hand touched below it; at most :attr:`ExecutionConfig.max_goal_shift`. A
+        container's rim below the goal is no ground, so a move into a container keeps the horizontal rule
+        (module doc). None for every other contact.
         """
         hands = [n for n in (touch.a, touch.b) if n in self.world.arms[: aim.arms]]
         others = [n for n in (touch.a, touch.b) if n not in self.world.arms]
