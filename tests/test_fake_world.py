@@ -34,7 +34,9 @@ class TableTopWorld:
 
     A closing gripper within 3 cm of an object's grasp point holds it (the object then follows the hand);
     an opening one lets it go onto the table. A closed gripper at the lid's handle that rises 8 cm opens
-    the box. The hand touching the can (within 4 cm of its top) is a contact.
+    the box. The hand touching the can (within 4 cm of its top) is a contact. The hand goes no lower than
+    ``floor``, and no lower than ``table_top``, where a fingertip touches the table 1 cm below it and 4 cm
+    aside (a contact).
     """
 
     dt = 1 / 30
@@ -48,9 +50,11 @@ class TableTopWorld:
         holding: str | None = None,
         can=(0.6, -0.3, 0.06),
         floor: float = -np.inf,
+        table_top: float = -np.inf,
     ) -> None:
         self.hand = np.array(hand, float)
-        self.floor = floor
+        self.floor = max(floor, table_top)
+        self.table_top = table_top
         self.centers = {
             "bottle": np.array([0.5, 0.1, 0.06]),
             "can": np.array(can),
@@ -79,6 +83,8 @@ class TableTopWorld:
         can_top = self.centers["can"] + [0.0, 0.0, 0.06]
         if np.linalg.norm(self.hand - can_top) < 0.04:
             return (Touch("gripper", "can", can_top),)
+        if self.hand[2] <= self.table_top:
+            return (Touch("gripper", "table", self.hand + np.array([0.04, 0.0, -0.01])),)
         return ()
 
     def locate(self, name: str, observation: Observation) -> np.ndarray | None:
@@ -270,6 +276,19 @@ def test_alg2_backs_up_and_moves_the_goal_away_from_an_unallowed_contact():
     assert k > 0 and np.allclose(goals[k] - goals[k - 1], shift, atol=2e-4)
 
 
+def test_alg2_moves_the_goal_up_when_a_fingertip_touches_the_table_below_the_hand():
+    """Alg. 2 lines 10-13 for a contact below the hand (issue 32): the table holds the hand 1.5 cm above
+    the bottle's grasp point; the goal goes up to 1 cm above where the hand touched (a sideways goal,
+    ``goalPos - collPos`` under the fingertip, would close the hand 4 cm beside the grasp point), and the
+    grasp holds."""
+    world = TableTopWorld(table_top=GRASP_HEIGHT + 0.06 + 0.015)
+    result = Executor(world, _library(), "env", TableConditions(), CONFIG).run(["grasp bottle"])
+    hits = [e for e in result.events if e.kind == EventKind.COLLISION]
+    assert hits and hits[0].data["collision"] == ["gripper", "table"] and hits[0].data["below"] == "table"
+    assert np.allclose(hits[0].data["shift"], [0.0, 0.0, 0.025], atol=2e-4) and "moved up" in hits[0].message
+    assert result.completed and world.held == "bottle"
+
+
 def test_a_contact_with_the_target_of_a_move_in_front_moves_the_goal_away_from_the_target():
     """Alg. 2 line 12 with goalPos the place beside the box for a move in front of it (the box's centre
     would shift the goal into the box), and the box's centre for a move into it."""
@@ -281,8 +300,8 @@ def test_a_contact_with_the_target_of_a_move_in_front_moves_the_goal_away_from_t
     skill = next(iter(_library().skills.values()))
     beside = Aim("move bottle in front of box", skill, "box", box)
     into = Aim("move bottle into box", skill, "box", box)
-    assert executor._goal_shift(touch, place, beside, set())[0] < 0  # away from the box
-    assert executor._goal_shift(touch, place, into, set())[0] > 0  # towards its centre
+    assert executor._goal_shift(touch, place, beside, set()).vector[0] < 0  # away from the box
+    assert executor._goal_shift(touch, place, into, set()).vector[0] > 0  # towards its centre
 
 
 def test_a_relative_piece_counts_from_the_previous_pieces_goal_not_from_a_hand_held_back():

@@ -24,8 +24,11 @@ from taskcond.conditions import (
     TaskCondition,
 )
 from taskcond.envs.kitchen import KitchenEnv
+from taskcond.execution.approach import Aim
 from taskcond.execution.executor import Executor
+from taskcond.execution.skills import Demonstration, SkillLibrary, learn_skill
 from taskcond.execution.sources import EnvConditions, GroundedConditions, LLMConditions
+from taskcond.execution.world import Touch
 from taskcond.generator import ConditionGenerator
 from taskcond.tasks.free import FreeTask
 from taskcond.tasks.registry import make
@@ -149,6 +152,47 @@ def test_alg2_backs_up_and_moves_the_goal_on_an_unallowed_collision(library) -> 
     for hit in hits:
         assert np.linalg.norm(hit.data["shift"]) <= 0.05 + 1e-3  # trace rounds to 0.1 mm
         assert hit.data["shift"][2] == 0.0  # horizontal only
+
+
+def test_alg2_moves_the_goal_up_for_the_hand_touching_the_table_below_it() -> None:
+    """Alg. 2 lines 11-12 for a contact below the hand (issue 32): the gripper touching the table under a
+    fingertip, lower than the end effector, moves the grasp's goal up, to 1 cm above the hand's height at
+    the contact; the same contact with the bottle, or the table touched above the end effector, keeps the
+    horizontal ``goalPos - collPos``; a move onto the table (the table its target) keeps it too."""
+    env = make("grasp-bottle")
+    try:
+        env.reset(seed=0)
+        world = KitchenWorld(env)
+        here, _ = world.ee_pose()
+        bottle = world.observe().centers["bottle"]
+        way = np.linspace(here, bottle + np.array([0.0, 0.0, 0.1]), 30)  # one piece: to the bottle
+        demo = Demonstration(
+            "grasp bottle",
+            "grasp-bottle",
+            np.arange(30) / 30,
+            way,
+            np.tile(world.ee_pose()[1], (30, 1)),
+            np.zeros(30),
+            "bottle",
+            bottle,
+        )
+        library = SkillLibrary()
+        library.add(learn_skill(demo))
+        executor = Executor(world, library, "llm", Fixed({}))
+        aim = Aim("grasp bottle", next(iter(library.skills.values())), "bottle", bottle)
+        goal = here - [0.0, 0.0, 0.004]  # the hand 4 mm above its goal when the fingertip meets the table
+        fingertip = here + np.array([0.04, 0.0, -0.01])
+        up = executor._goal_shift(Touch("gripper", "table", fingertip), goal, aim, set())
+        side = executor._goal_shift(Touch("gripper", "bottle", fingertip), goal, aim, set())
+        over = here + np.array([0.04, 0.0, 0.01])  # the table's edge above the end effector
+        above = executor._goal_shift(Touch("table", "gripper", over), goal, aim, set())
+        onto = Aim("move bottle on top of table", aim.skill, "table", here)
+        onto_table = executor._goal_shift(Touch("gripper", "table", fingertip), goal, onto, set())
+    finally:
+        env.close()
+    assert up.below == "table" and np.allclose(up.vector, [0.0, 0.0, 0.014])
+    for shift in (side, above, onto_table):
+        assert shift.below is None and shift.vector[2] == 0.0 and np.linalg.norm(shift.vector) > 0.0
 
 
 def test_container_states_an_object_cannot_have_are_ignored_with_a_note(library) -> None:

@@ -27,7 +27,9 @@ class ExecutionConfig:
         clearance: depth (m) by which the hand's footprint at a grasp's goal may reach into the box of an
             object standing up beside it before the grasp of a round object is turned to another side;
             also the least gap (m) :meth:`~taskcond.execution.approach.Approach._aside` keeps around a
-            placed object.
+            placed object, and the height (m) above the end effector's height at a contact with the ground
+            below the hand to which Alg. 2 moves the goal up
+            (:meth:`~taskcond.execution.executor.Executor._lift`).
         approach_distance: a one-arm grasp whose hand is farther than this (m) from where every
             demonstration of it started, relative to the target, first goes to the highest such start
             (:meth:`~taskcond.execution.approach.Approach._far`,

@@ -224,20 +224,34 @@ class EventLog:
         )
 
     def collision(
-        self, task: str, depth: int, touch: Touch, back: int, shift: np.ndarray, goal: np.ndarray
+        self,
+        task: str,
+        depth: int,
+        touch: Touch,
+        back: int,
+        shift: np.ndarray,
+        goal: np.ndarray,
+        below: str | None = None,
     ) -> None:
+        """Alg. 2 lines 10–13 done for ``touch``; ``below``: the ground the hand touched below itself, for
+        which the goal was moved up (:meth:`~taskcond.execution.executor.Executor._lift`)."""
+        data = {
+            "collision": [touch.a, touch.b],
+            "position": json_vector(touch.position),
+            "goal": json_vector(goal),
+            "shift": json_vector(shift),
+        }
+        moved = "moved by"
+        if below is not None:
+            data["below"] = below
+            moved = f"moved up (the hand touched the {below} below it: a sideways goal would not clear it) by"
         self.emit(
             EventKind.COLLISION,
             task,
             depth,
             f"{task}: unallowed collision {touch.a} / {touch.b} at {fmt_vector(touch.position)}: backed up "
-            f"{back} points, goal moved by {fmt_vector(shift)} to {fmt_vector(goal)}",
-            {
-                "collision": [touch.a, touch.b],
-                "position": json_vector(touch.position),
-                "goal": json_vector(goal),
-                "shift": json_vector(shift),
-            },
+            f"{back} points, goal {moved} {fmt_vector(shift)} to {fmt_vector(goal)}",
+            data,
         )
 
     def post(self, task: str, depth: int, missing: Sequence[Predicate]) -> None:

@@ -28,8 +28,9 @@ With conditions, every primitive is performed as
    goal for a piece without a target. We keep the horizontal part only and bound it by
    :attr:`ExecutionConfig.max_goal_shift` (the paper moves the goal in 3-D without bound): a contact at a
    container's rim below the goal would otherwise lift the goal out of the container the object is being
-   lowered into. Spatial relations of the gripper itself (``gripper in front of box``) are left to the
-   motion: no primitive achieves them on their own;
+   lowered into. The one exception is the hand touching the ground (the table) below itself: there the
+   goal moves up, by at most that bound (:meth:`Executor._lift`). Spatial relations of the gripper itself
+   (``gripper in front of box``) are left to the motion: no primitive achieves them on their own;
 3. the post-conditions are checked (:meth:`Executor.perform`); if some of its *effects* do not hold
    (post-conditions that are not also pre-conditions, and not relations of the gripper itself, which no
    primitive achieves alone), the primitive is tried again; a condition kept from the pre-conditions that
@@ -132,6 +133,20 @@ class TargetTrack:
         change = (np.asarray(centre, float) - self.mean) / self.count
         self.mean = self.mean + change
         return change
+
+
+@dataclass(frozen=True)
+class GoalShift:
+    """Alg. 2 line 12's goal change for one unallowed collision (:meth:`Executor._goal_shift`).
+
+    Attributes:
+        vector: (3,) m, world frame: the change of the goal of each moving arm.
+        below: the ground the hand touched below itself when the goal was moved up for it
+            (:meth:`Executor._lift`), else None (the horizontal ``goalPos − collPos``).
+    """
+
+    vector: np.ndarray
+    below: str | None = None
 
 
 @dataclass(frozen=True)
@@ -492,18 +507,19 @@ class Executor(Approach):
         goal = rollout.goal
         state = rollout.back_up(back)
         shift = self._goal_shift(touch, goal, aim, monitor.held)
-        goal = goal + np.tile(shift, aim.arms)
+        goal = goal + np.tile(shift.vector, aim.arms)
         rollout.set_goal(goal)
         monitor.adjusted(touch)
         self.adjustments += 1
-        self.log.collision(aim.task, depth, touch, back, shift, goal)
+        self.log.collision(aim.task, depth, touch, back, shift.vector, goal, shift.below)
         return state.position
 
-    def _goal_shift(self, touch: Touch, goal: np.ndarray, aim: Aim, held: set[str]) -> np.ndarray:
-        """Alg. 2 line 12's goal change (3,) for a collision at ``touch``: ``goalPos − collPos`` with the
+    def _goal_shift(self, touch: Touch, goal: np.ndarray, aim: Aim, held: set[str]) -> GoalShift:
+        """Alg. 2 line 12's goal change for a collision at ``touch``: ``goalPos − collPos`` with the
         paper's goalPos, the target object's centre (line 4) for a primitive with a target, else the goal
         ``goal`` ((3k,) m) of the arm involved (the first arm's if none is), horizontal only and at most
-        :attr:`ExecutionConfig.max_goal_shift` long (module doc).
+        :attr:`ExecutionConfig.max_goal_shift` long (module doc); for the hand touching the ground below
+        it, up instead (:meth:`_lift`).
 
         A collision with the target itself while carrying an object (the toothpaste, or the hand holding
         it, on the mug's rim) moves the goal by ``target centre − where the carried object would end``
@@ -516,18 +532,48 @@ class Executor(Approach):
         contact with the target moves the goal away from it (issue 31: with the box's centre, each contact
         with the box moved the goal 5 cm further into it, and the mug was pushed over against it).
         """
+        lift = self._lift(touch, goal, aim)
+        if lift is not None:
+            return lift
         target = None if _beside(aim.task) else aim.target
         carried = sorted(held)
         if target is not None and aim.target_name in (touch.a, touch.b) and carried:
             centre = self.world.observe().centers.get(carried[0])
             if centre is not None:
                 here, _ = self.world.ee_pose()
-                return self._bounded(np.asarray(target, float) - (centre + goal[:3] - here))
+                return GoalShift(self._bounded(np.asarray(target, float) - (centre + goal[:3] - here)))
         if target is None:
             names = [n for n in (touch.a, touch.b) if n in self.world.arms]
             arm = self.world.arms.index(names[0]) if names else 0
             target = goal[3 * arm : 3 * arm + 3]
-        return self._bounded(np.asarray(target, float) - touch.position)
+        return GoalShift(self._bounded(np.asarray(target, float) - touch.position))
+
+    def _lift(self, touch: Touch, goal: np.ndarray, aim: Aim) -> GoalShift | None:
+        """Alg. 2 lines 11–12 for a contact below the hand: the hand of a moving arm touching the ground
+        (:attr:`~taskcond.execution.world.World.ground`, what everything stands on; not the primitive's
+        target) at a point lower than its end effector. ``goalPos − collPos`` is nearly horizontal for such
+        a contact (the contact lies under a fingertip, beside the end effector's goal), and a sideways
+        goal only moves the fingers along the table to grip the object elsewhere (issue 32: robosuite's
+        square nut at σ = 20 mm, gripped by another part and set beside its peg). The goal goes up
+        instead, by ``max(0, hand − goal) + clearance`` (heights, m; :attr:`ExecutionConfig.clearance`): to
+        the clearance above the end effector's height at the contact (the hand reached no lower there), or
+        above the goal if the hand touched below it; at most :attr:`ExecutionConfig.max_goal_shift`. A
+        container's rim below the goal is no ground, so a move into a container keeps the horizontal rule
+        (module doc). None for every other contact.
+        """
+        hands = [n for n in (touch.a, touch.b) if n in self.world.arms[: aim.arms]]
+        others = [n for n in (touch.a, touch.b) if n not in self.world.arms]
+        if len(hands) != 1 or len(others) != 1:
+            return None
+        ground = others[0]
+        if ground not in self.world.ground or ground == aim.target_name:
+            return None
+        arm = self.world.arms.index(hands[0])
+        here = self.world.ee_pose(aim.arms)[0][3 * arm : 3 * arm + 3]
+        if float(touch.position[2]) >= float(here[2]):
+            return None
+        up = max(float(here[2] - goal[3 * arm + 2]), 0.0) + self.config.clearance
+        return GoalShift(np.array([0.0, 0.0, min(up, self.config.max_goal_shift)]), ground)
 
     def _bounded(self, shift: np.ndarray) -> np.ndarray:
         """``shift`` (3,) m without its vertical part, at most :attr:`ExecutionConfig.max_goal_shift`
