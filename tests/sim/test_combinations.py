@@ -94,6 +94,8 @@ def test_an_instruction_with_a_clause_the_hand_cannot_do_is_refused_before_the_l
     assert res.exit_code == 2, res.output
     assert res.stderr.startswith("error: cannot 'move mug into microwave': the microwave opens at its side")
     assert res.stderr.count("\n") == 1 and not (tmp_path / "runs").exists()
+    res = CliRunner().invoke(app, ["run", "Pick up the can and put it in the microwave."])  # "it": the can
+    assert res.exit_code == 2 and res.stderr.startswith("error: cannot 'move can into microwave'"), res.output
     assert not (tmp_path / "cache").exists() or not any((tmp_path / "cache").rglob("*.json"))
 
 

@@ -8,7 +8,7 @@ from collections.abc import Callable, Iterable
 from dataclasses import dataclass, replace
 from typing import Any
 
-from taskcond.decompose import CLAUSE_BREAK, mentions
+from taskcond.decompose import mentions, said_tasks
 from taskcond.llm.base import ChatBackend
 from taskcond.primitives import TaskNameError, parse_task
 from taskcond.sim.roles import part_aliases, scene_roles
@@ -145,21 +145,15 @@ def refused_task(
     instruction: str, objects: Iterable[str], affords: Callable[[str, tuple[str, ...]], str | None]
 ) -> str | None:
     """Why an instruction that reads as one primitive task on objects of the scene, or has a clause that
-    does, cannot be done there (``put the box into the bottle``: the box cannot be picked up; "put the mug
-    in the microwave and close it": the hand cannot enter the microwave), or None. Asked before the LLM
-    decomposes it, which would otherwise answer a different task (the bottle into the box; told that the
-    mug cannot go into the microwave, the mug on the table, and the run would meet the goal of that plan).
-    An instruction naming an object the scene lacks is left to the LLM (it may be a misspelling)."""
-    names = set(objects)
-    clauses = [instruction.strip().rstrip(".!?"), *CLAUSE_BREAK.split(instruction)]
-    for clause in filter(None, (c.strip() for c in clauses)):
-        try:
-            task = parse_task(clause)
-        except TaskNameError:
-            continue
-        if not set(task.objects) <= names:
-            continue
-        reason = affords(task.primitive.id, task.objects)
+    does (:func:`~taskcond.decompose.said_tasks`, "it" read as the previous clause's object), cannot be
+    done there (``put the box into the bottle``: the box cannot be picked up; "pick up the mug and put it in
+    the microwave": the hand cannot enter the microwave), or None. Asked before the LLM decomposes it,
+    which would otherwise answer a different task (the bottle into the box; told that the mug cannot go into
+    the microwave, the mug on the table, and the run would meet the goal of that plan). An instruction
+    naming an object the scene lacks is left to the LLM (it may be a misspelling)."""
+    for task in filter(None, said_tasks(instruction, list(objects))):
+        parsed = parse_task(task)
+        reason = affords(parsed.primitive.id, parsed.objects)
         if reason is not None:
-            return f"cannot {task.name!r}: {reason}"
+            return f"cannot {parsed.name!r}: {reason}"
     return None
