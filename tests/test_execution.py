@@ -26,6 +26,7 @@ from taskcond.decompose import (
     with_object_names,
     with_on_top,
     with_open_close,
+    with_release,
     with_releases,
     with_tilt,
     without_carry_releases,
@@ -535,9 +536,14 @@ def test_a_plan_that_contradicts_what_its_clauses_say_is_asked_again() -> None:
     the toothpaste" with ``grasp toothpaste``, ``move toothpaste into bowl``."""
     objects = ["cube", "box", "bowl", "toothpaste", "top drawer", "bottom drawer", "can", "microwave"]
     said = said_tasks(
-        "Close the top drawer, then put the bowl into the bottom drawer, then pick it up.", objects
+        "Close the top drawer, then put the bowl into the bottom drawer, then grab the bowl.", objects
     )
     assert said == ["close top drawer", "move bowl into bottom drawer", "grasp bowl"]
+    assert said_tasks("Pick up the can and tilt it.", objects) == ["grasp can", "tilt can"]
+    assert said_tasks("Put the bowl in the box and shut it.", objects) == [
+        "move bowl into box",
+        None,
+    ]  # which?
     right = [
         "close top drawer",
         "open bottom drawer",
@@ -555,6 +561,11 @@ def test_a_plan_that_contradicts_what_its_clauses_say_is_asked_again() -> None:
     assert (
         with_open_close("Pull the bottom drawer open, then push it shut.")
         == "Open the bottom drawer, then close it."
+    )
+    assert with_release("Pick up the bottle and put it down again.") == "Pick up the bottle and release it."
+    assert (
+        with_release("Set the bowl down in front of the cabinet.")
+        == "Set the bowl down in front of the cabinet."
     )
     loose = said_tasks("Tidy up the top drawer and grasp the can.", objects)
     assert loose == [None, "grasp can"]

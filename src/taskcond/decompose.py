@@ -78,8 +78,9 @@ need (the prompt's rule "grasp an object before moving it, release it after").""
 
 def said_tasks(instruction: str, objects: Sequence[str]) -> list[str | None]:
     """The primitive task each clause of ``instruction`` (split at :data:`CLAUSE_BREAK`) reads as on
-    objects of the scene (:func:`~taskcond.primitives.parse_task`; "it" is the previous clause's first
-    object: "pick up the mug and tilt it"), None for a clause that reads as none."""
+    objects of the scene (:func:`~taskcond.primitives.parse_task`; "it" is the previous clause's object
+    where it names one: "pick up the mug and tilt it"; after "put the bowl in the box", "close it" reads as
+    none), None for a clause that reads as none."""
     out: list[str | None] = []
     previous: str | None = None
     for clause in filter(None, (c.strip() for c in CLAUSE_BREAK.split(instruction))):
@@ -92,7 +93,7 @@ def said_tasks(instruction: str, objects: Sequence[str]) -> list[str | None]:
             continue
         known = set(task.objects) <= set(objects)
         out.append(task.name if known else None)
-        previous = task.objects[0] if known and task.objects else previous
+        previous = task.objects[0] if known and len(task.objects) == 1 else None
     return out
 
 
@@ -219,6 +220,15 @@ PUSH_SHUT = re.compile(r"\b(?P<verb>push|pull)\s+(?P<what>[^,;.!?]+?)\s+(?P<how>
 """A drawer, lid or door pushed shut or pulled open: "push the top drawer shut"."""
 
 
+PUT_DOWN_WORDS = re.compile(
+    r"\b(?:put|set|lay)\s+(?P<what>it|them|the\s+[^,;.!?]+?)\s+(?:back\s+)?down(?:\s+again)?"
+    r"(?=\s*(?:$|[,;.!?]|\band\b|\bthen\b))",
+    re.I,
+)
+"""What is held put down where it is, the clause ending there: "put it down again" (not "set the bowl down
+in front of the cabinet")."""
+
+
 def with_open_close(instruction: str) -> str:
     """``instruction`` with "push X shut" said as "close X" and "pull X open" as "open X", the vocabulary's
     verbs (issue 31, item 5): the embedded model answered "push the top drawer shut" with ``open top
@@ -229,6 +239,13 @@ def with_open_close(instruction: str) -> str:
         return f"{verb.title() if m['verb'][0].isupper() else verb} {m['what']}"
 
     return PUSH_SHUT.sub(said, instruction)
+
+
+def with_release(instruction: str) -> str:
+    """``instruction`` with "put X down (again)" said as "release X", the vocabulary's primitive that lets go
+    of an object and sets it down where the hand is (issue 31, item 5): for "pick up the bottle and put it
+    down again" the embedded model answered moves of the bottle into the table, then into each drawer."""
+    return PUT_DOWN_WORDS.sub(lambda m: f"{'R' if m[0][0].isupper() else 'r'}elease {m['what']}", instruction)
 
 
 def decompose(
@@ -245,10 +262,10 @@ def decompose(
     ask for after a carry dropped, :func:`without_carry_releases`; :func:`with_releases` added),
     the objects' ``aliases`` (alias → object name) replaced by their names first
     (:func:`with_object_names`), "on" said as "on top of" (:func:`with_on_top`), "pour" as "tilt"
-    (:func:`with_tilt`), "push X shut" as "close X" (:func:`with_open_close`). Each answer must also say
-    what the instruction's clauses say (:func:`contradiction`); when no answer does and every clause reads
-    as a primitive task, the plan is those tasks (releases added, the grasps and opens left to the
-    planner), and ``tell`` is told so.
+    (:func:`with_tilt`), "push X shut" as "close X" (:func:`with_open_close`), "put X down" as "release
+    X" (:func:`with_release`). Each answer must also say what the instruction's clauses say
+    (:func:`contradiction`); when no answer does and every clause reads as a primitive task, the plan is
+    those tasks (releases added, the grasps and opens left to the planner), and ``tell`` is told so.
 
     Raises:
         DecompositionError: no valid plan within ``1 + max_retries`` answers (the last error is given).
@@ -256,7 +273,7 @@ def decompose(
     """
     patterns = "\n".join(f"  {p.pattern}" for p in PRIMITIVES.values())
     named = with_object_names(" ".join(instruction.split()), objects, aliases or {})
-    text = with_open_close(with_tilt(with_on_top(named)))
+    text = with_release(with_open_close(with_tilt(with_on_top(named))))
     prompt = load_prompt("decompose", version).substitute(
         patterns=patterns, objects=", ".join(objects), instruction=text
     )
@@ -301,6 +318,7 @@ __all__ = [
     "with_object_names",
     "with_on_top",
     "with_open_close",
+    "with_release",
     "with_releases",
     "with_tilt",
     "without_carry_releases",
