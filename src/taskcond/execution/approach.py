@@ -309,19 +309,9 @@ class Approach:
         Raises:
             ExecutionError: the target is unseen or lies (a grasp), no skill fits, or it needs more arms.
         """
-        target_name = target_object(task)
-        target = self.world.locate(target_name, obs) if target_name is not None else None
-        if target_name is not None and target is None:
-            raise ExecutionError(
-                f"{target_name!r} is not perceived; cannot aim {task!r} at it", FailureKind.NOT_PERCEIVED
-            )
+        target_name, target = self._target(task, obs)
         parsed = parse_task(task)
         grasp = parsed.primitive.grasps
-        if grasp and target_name in obs.lying:
-            raise ExecutionError(
-                f"{target_name!r} fell over; no grasp skill holds it lying (each is demonstrated upright)",
-                FailureKind.FALLEN,
-            )
         here, here_q = self.world.ee_pose()
         choice, skill = self._choose(task, obs, here - target if target is not None else here, here_q)
         carry = parsed.primitive.approach is HandApproach.CARRY and obs.grasped() == parsed.objects[0]
@@ -349,17 +339,32 @@ class Approach:
         way = CarriedWay(approach, None, descent)
         if carry and target is not None:
             way = self._carried_way(task, skill, target + aside, approach, obs, here)
-        if (
-            aiming is not None
-            and parsed.primitive.approach is HandApproach.EMPTY_HAND
-            and not grasp
-            and not retry
-        ):
+        empty = parsed.primitive.approach is HandApproach.EMPTY_HAND and not (grasp or retry)
+        if aiming is not None and empty:
             way = self._clear_way(aiming, turn, way)
         placed = (task, skill, target_name, None if target is None else target + aside, turn, aside)
         hold = carry and self.hand.round_carry_holds and parsed.objects[0] in obs.round
         steer = (way.descent, hold, way.detour, way.swept, way.tilt)
         return Aim(*placed, way.approach, way.over, scale, choice.reason, *steer)
+
+    def _target(self, task: str, obs: Observation) -> tuple[str | None, np.ndarray | None]:
+        """The target of ``task`` and its perceived centre ((3,) m) in ``obs``; (None, None) without one.
+
+        Raises:
+            ExecutionError: the target is unseen, or lies and the task grasps it.
+        """
+        target_name = target_object(task)
+        target = self.world.locate(target_name, obs) if target_name is not None else None
+        if target_name is not None and target is None:
+            raise ExecutionError(
+                f"{target_name!r} is not perceived; cannot aim {task!r} at it", FailureKind.NOT_PERCEIVED
+            )
+        if parse_task(task).primitive.grasps and target_name in obs.lying:
+            raise ExecutionError(
+                f"{target_name!r} fell over; no grasp skill holds it lying (each is demonstrated upright)",
+                FailureKind.FALLEN,
+            )
+        return target_name, target
 
     def _carry_aside(
         self, task: str, skill: Skill, target: np.ndarray, obs: Observation, here: np.ndarray

@@ -437,15 +437,7 @@ class Executor(Approach):
             ExecutionError: the piece's goal is out of reach, or the simulation fails.
         """
         start, start_q = self.world.ee_pose(aim.arms)
-        k = aim.skill.segments.index(seg)
-        goal = piece_goal(
-            aim.skill, k, start if planned is None else planned, aim.target, aim.turn, aim.scale, aim.tilt
-        )
-        reason = self.world.reach_error(goal)
-        if reason is not None:
-            raise ExecutionError(
-                f"goal {fmt_vector(goal)} of {aim.task!r} is out of reach: {reason}", FailureKind.UNREACHABLE
-            )
+        goal = self._piece_goal(seg, aim, start if planned is None else planned)
         first = seg is aim.skill.segments[0]
         rollout = self._gen_dmp(seg, start, goal, aim.descent and first, aim.detour and first)
         self._tell(rollout, goal, monitor, seg.gripper >= 0.5)
@@ -473,6 +465,22 @@ class Executor(Approach):
             for _ in range(max(1, back // 3)):
                 self._step(back_to, orientations[k], seg.gripper)
         return Piece(made, np.array(rollout.goal, float))
+
+    def _piece_goal(self, seg: Segment, aim: Aim, base: np.ndarray) -> np.ndarray:
+        """The goal ((3k,) m) of ``aim``'s piece ``seg`` (:func:`piece_goal`; a relative piece's from
+        ``base``).
+
+        Raises:
+            ExecutionError: the goal is out of reach.
+        """
+        k = aim.skill.segments.index(seg)
+        goal = piece_goal(aim.skill, k, base, aim.target, aim.turn, aim.scale, aim.tilt)
+        reason = self.world.reach_error(goal)
+        if reason is not None:
+            raise ExecutionError(
+                f"goal {fmt_vector(goal)} of {aim.task!r} is out of reach: {reason}", FailureKind.UNREACHABLE
+            )
+        return goal
 
     def _track(self, rollout: DMPRollout, track: TargetTrack, arms: int) -> None:
         """Move ``rollout``'s goal by the change of ``track``'s mean with the target's centre perceived now
