@@ -407,15 +407,28 @@ def test_random_start_is_seeded_and_collision_free() -> None:
         env.close()
 
 
+@pytest.mark.parametrize(
+    ("instruction", "error"),
+    [
+        ("Put the box into the bottle.", "error: cannot 'move box into bottle': 'box' cannot be moved"),
+        (  # a clause of a longer instruction; told that it was refused, the LLM answered the mug on the table
+            "Open the door, then put the mug in the microwave and close it.",
+            "error: cannot 'move mug into microwave': the microwave opens at its side",
+        ),
+        ("Pick up the can and put it in the microwave.", "error: cannot 'move can into microwave'"),
+    ],
+)
 def test_an_instruction_whose_roles_are_impossible_is_one_line_and_nothing_runs(
-    tmp_path, monkeypatch
+    tmp_path, monkeypatch, instruction, error
 ) -> None:
+    """Refused in one line before the LLM is asked (no answer cached), and nothing runs."""
     monkeypatch.setenv("TASKCOND_CACHE_DIR", str(tmp_path / "cache"))
     monkeypatch.chdir(tmp_path)
-    res = CliRunner().invoke(app, ["run", "Put the box into the bottle."])
+    res = CliRunner().invoke(app, ["run", instruction])
     assert res.exit_code == 2, res.output
-    assert res.stderr.startswith("error: cannot 'move box into bottle': 'box' cannot be moved")
+    assert res.stderr.startswith(error)
     assert res.stderr.count("\n") == 1 and not (tmp_path / "runs").exists()
+    assert not (tmp_path / "cache").exists() or not any((tmp_path / "cache").rglob("*.json"))
 
 
 def test_a_flat_cloth_is_located_at_its_resting_height_whatever_the_noise() -> None:
