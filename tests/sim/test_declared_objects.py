@@ -207,12 +207,15 @@ def test_every_command_with_objects_refuses_a_bad_declaration(tmp_path, capsys, 
     assert err.startswith(f"error: {path}: object 1 ('ball'): unknown key(s) ['colour']")
 
 
-def test_the_same_object_may_be_declared_again_but_not_differently(tmp_path) -> None:
+def test_the_same_object_may_be_declared_again_but_not_differently(tmp_path, monkeypatch) -> None:
     first, second = tmp_path / "a.toml", tmp_path / "b.toml"
     first.write_text('[[object]]\nname = "ball"\nshape = "sphere"\nsize = [0.03]\nplace = [0.4, 0.1]\n')
     second.write_text('[[object]]\nname = "ball"\nshape = "sphere"\nsize = [0.04]\nplace = [0.4, 0.1]\n')
     load_objects(first)
     load_objects(first)  # the same declaration again (a worker loading the files of its parent)
+    monkeypatch.chdir(EXAMPLES.parent)  # a mesh named relative to the file, by a relative then resolved path
+    load_objects(EXAMPLES.name)
+    load_objects(EXAMPLES.resolve())
     with pytest.raises(ObjectError, match=rf"^{second}: object 1 \('ball'\): 'ball' is declared differently"):
         load_objects(second)
     assert SceneConfig().free_objects["ball"][0] == SolidSpec("sphere", (0.03,))

@@ -276,7 +276,8 @@ def load_objects(path: str | Path) -> list[DeclaredObject]:
     path = Path(path)
     read = read_declarations(path, "object", ObjectError)
     declared: list[DeclaredObject] = []
-    spare = sum(1 for d in DECLARED.values() if d.placement.xy in SPARE_SPOTS)
+    own = {e.get("name") for e in read.entries if isinstance(e, dict)}  # declared again: keep their spots
+    spare = sum(1 for d in DECLARED.values() if d.placement.xy in SPARE_SPOTS and d.name not in own)
     hashes = hashlib.sha256(read.raw)
     for k, entry in enumerate(read.entries, start=1):
         label = f"object {k}" + (
@@ -285,7 +286,7 @@ def load_objects(path: str | Path) -> list[DeclaredObject]:
         if not isinstance(entry, dict) or "name" not in entry:
             raise ObjectError(f"{path}: {label} needs a 'name'")
         try:
-            obj = _declaration(entry, path.parent, spare, f"{path} {label}")
+            obj = _declaration(entry, path.resolve().parent, spare, f"{path} {label}")
             if obj.name in (d.name for d in declared):
                 raise ObjectError(f"{obj.name!r} is declared twice in this file")
             clash = set((obj.name, *obj.aliases)) & {w for d in declared for w in (d.name, *d.aliases)}
