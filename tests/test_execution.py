@@ -505,6 +505,13 @@ def test_an_objects_other_name_is_replaced_by_its_name_before_the_llm_reads_it()
     assert with_object_names(text, objects, aliases) == (
         "Put the bowl in the top drawer, then the mug in the lunch box and the cupboard."
     )
+    # an alias inside a longer name stays: "soup" is the soup can's other name, "tin can" the can's
+    named = with_object_names(
+        "Set the Soup can by the soup and the tin can.",
+        ("soup can", "can"),
+        {"soup": "soup can", "tin can": "can"},
+    )
+    assert named == "Set the Soup can by the soup can and the can."
 
 
 def test_on_after_a_verb_that_puts_is_read_as_on_top_of() -> None:

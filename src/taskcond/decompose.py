@@ -183,13 +183,16 @@ def _part_of(name: str, objects: Sequence[str]) -> str:
 
 def with_object_names(instruction: str, objects: Sequence[str], aliases: Mapping[str, str]) -> str:
     """``instruction`` with each alias of ``aliases`` (whole words, any case) whose object is in
-    ``objects`` replaced by the object's name, longest alias first: "the upper drawer" → "the top
-    drawer". A small model maps an alias to the wrong object of the list it is shown."""
-    for alias in sorted(aliases, key=len, reverse=True):
-        if aliases[alias] in objects:
-            pattern = rf"(?<![\w-]){re.escape(alias)}(?![\w-])"
-            instruction = re.sub(pattern, aliases[alias], instruction, flags=re.IGNORECASE)
-    return instruction
+    ``objects`` replaced by the object's name: "the upper drawer" → "the top drawer". One pass, the
+    longest match first, names included, so an alias inside a longer name stays ("soup", an alias of the
+    soup can, in "the soup can"). A small model maps an alias to the wrong object of the list it is shown."""
+    names = {n.lower(): None for n in objects}  # a name is kept as written
+    names |= {a.lower(): o for a, o in aliases.items() if o in objects and a.lower() not in names}
+    if not names:
+        return instruction
+    words = "|".join(re.escape(w) for w in sorted(names, key=len, reverse=True))
+    pattern = re.compile(rf"(?<![\w-])(?:{words})(?![\w-])", re.IGNORECASE)
+    return pattern.sub(lambda m: names[m[0].lower()] or m[0], instruction)
 
 
 PUT_ON = re.compile(
@@ -241,6 +244,15 @@ def with_open_close(instruction: str) -> str:
     return PUSH_SHUT.sub(said, instruction)
 
 
+def said_text(instruction: str, objects: Sequence[str], aliases: Mapping[str, str]) -> str:
+    """``instruction`` as the LLM and the words check read it: single-spaced, the objects' ``aliases``
+    replaced by their names (:func:`with_object_names`), "on" said as "on top of" (:func:`with_on_top`),
+    "pour" as "tilt" (:func:`with_tilt`), "push X shut" as "close X" (:func:`with_open_close`), "put X
+    down" as "release X" (:func:`with_release`)."""
+    named = with_object_names(" ".join(instruction.split()), objects, aliases)
+    return with_release(with_open_close(with_tilt(with_on_top(named))))
+
+
 def with_release(instruction: str) -> str:
     """``instruction`` with "put X down (again)" said as "release X", the vocabulary's primitive that lets go
     of an object and sets it down where the hand is (issue 31, item 5): for "pick up the bottle and put it
@@ -260,10 +272,9 @@ def decompose(
 ) -> list[str]:
     """Ask the LLM for the primitive tasks of ``instruction`` in order (a release the instruction does not
     ask for after a carry dropped, :func:`without_carry_releases`; :func:`with_releases` added),
-    the objects' ``aliases`` (alias → object name) replaced by their names first
-    (:func:`with_object_names`), "on" said as "on top of" (:func:`with_on_top`), "pour" as "tilt"
-    (:func:`with_tilt`), "push X shut" as "close X" (:func:`with_open_close`), "put X down" as "release
-    X" (:func:`with_release`). Each answer must also say what the instruction's clauses say
+    the instruction said in the vocabulary's words first (:func:`said_text`: the objects' ``aliases``,
+    alias → object name, replaced by their names, "on" as "on top of", "push X shut" as "close X"). Each
+    answer must also say what the instruction's clauses say
     (:func:`contradiction`); when no answer does and every clause reads as a primitive task, the plan is
     those tasks (releases added, the grasps and opens left to the planner), and ``tell`` is told so.
 
@@ -272,8 +283,7 @@ def decompose(
         LLMError: the backend failed.
     """
     patterns = "\n".join(f"  {p.pattern}" for p in PRIMITIVES.values())
-    named = with_object_names(" ".join(instruction.split()), objects, aliases or {})
-    text = with_release(with_open_close(with_tilt(with_on_top(named))))
+    text = said_text(instruction, objects, aliases or {})
     prompt = load_prompt("decompose", version).substitute(
         patterns=patterns, objects=", ".join(objects), instruction=text
     )
@@ -315,6 +325,7 @@ __all__ = [
     "mentions",
     "parse_plan",
     "said_tasks",
+    "said_text",
     "with_object_names",
     "with_on_top",
     "with_open_close",

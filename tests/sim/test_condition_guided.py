@@ -416,6 +416,10 @@ def test_random_start_is_seeded_and_collision_free() -> None:
             "error: cannot 'move mug into microwave': the microwave opens at its side",
         ),
         ("Pick up the can and put it in the microwave.", "error: cannot 'move can into microwave'"),
+        (
+            "Push the bottle shut.",
+            "error: cannot 'close bottle': 'bottle' has no lid",
+        ),  # read as said to the LLM
     ],
 )
 def test_an_instruction_whose_roles_are_impossible_is_one_line_and_nothing_runs(

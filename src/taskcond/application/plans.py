@@ -106,15 +106,19 @@ def llm_decomposer(
     :func:`~taskcond.sim.roles.part_aliases`) as the objects' names.
 
     The decomposer raises DecompositionError (no valid plan, or refused) and LLMError."""
-    from taskcond.decompose import DecompositionError, decompose, with_object_names
+    from taskcond.decompose import DecompositionError, decompose, said_text
     from taskcond.llm.config import LLMConfig, make_backend
 
     backends: list[Any] = [] if backend is None else [backend]
+    names: dict[tuple[str, ...], dict[str, str]] = {}  # the aliases of each scene's objects, read once
 
     def decomposer(instruction: str, scene: str) -> list[str]:
         objects, affords = scene_objects(scene)
-        aliases = scene_aliases() | part_aliases(o for o in scene_roles().values() if o.name in objects)
-        refused = refused_task(with_object_names(instruction, objects, aliases), objects, affords)
+        if tuple(objects) not in names:
+            parts = part_aliases(o for o in scene_roles().values() if o.name in objects)
+            names[tuple(objects)] = scene_aliases() | parts
+        aliases = names[tuple(objects)]
+        refused = refused_task(said_text(instruction, objects, aliases), objects, affords)
         if refused is not None:
             raise DecompositionError(f"{refused}; nothing was run")
         if announce is not None:
