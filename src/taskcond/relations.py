@@ -16,7 +16,9 @@ horizontal front direction (towards the robot, default world -x; ``l`` the horiz
   around A: ``cG`` (the grasp point) lies in A's box grown by ``t.inside_margin`` and along at least one axis
   G's box reaches past A's on both sides. ``G inside A`` does not hold while ``A inside G`` does.
 * ``A above B``: the horizontal footprints overlap by at least ``t.above_overlap`` of the smaller one's area,
-  A's bottom is no lower than ``t.above_tolerance`` below B's top, and ``cA`` is higher than ``cB``.
+  A's bottom is no lower than ``t.above_tolerance`` below B's top, and ``cA`` is higher than ``cB``. B's top
+  is its bottom for a soft B (the cloth): it gives way under what stands on it, and a wrinkle standing up
+  elsewhere is its box's top.
 * ``A below B`` exactly when ``B above A``.
 * ``A in front of B``: the boxes' extents along ``l`` overlap by at least ``t.front_lateral_overlap`` of the
   narrower one; the free gap along ``f`` from B's front face to A's back face is at most
@@ -49,12 +51,14 @@ class Box:
         lower, upper: minimum and maximum corners, ``lower <= upper``.
         center: the object's centre: the box centre for anything measured; a gripper's grasp point.
         gripper: the box is a gripper's (its two fingers'): ``inside`` then means "held between them".
+        soft: the box is a soft body's (the cloth's): ``A above B`` then measures A's bottom from B's bottom.
     """
 
     lower: Vec3
     upper: Vec3
     center: Vec3
     gripper: bool = False
+    soft: bool = False
 
     @classmethod
     def of(
@@ -143,7 +147,8 @@ def inside(a: Box, b: Box, t: RelationThresholds = THRESHOLDS) -> bool:
 
 def above(a: Box, b: Box, t: RelationThresholds = THRESHOLDS) -> bool:
     """``A above B`` (module doc)."""
-    if a.lower[2] < b.upper[2] - t.above_tolerance or a.center[2] <= b.center[2]:
+    top = b.lower[2] if b.soft else b.upper[2]
+    if a.lower[2] < top - t.above_tolerance or a.center[2] <= b.center[2]:
         return False
     footprint_a = (a.upper[0] - a.lower[0]) * (a.upper[1] - a.lower[1])
     footprint_b = (b.upper[0] - b.lower[0]) * (b.upper[1] - b.lower[1])

@@ -200,6 +200,7 @@ def spatial_relations(
     thresholds: RelationThresholds = THRESHOLDS,
     front: tuple[float, float, float] = FRONT,
     grippers: Iterable[str] = ("gripper",),
+    soft: Iterable[str] = (),
 ) -> frozenset[SpatialRelation]:
     """The spatial relations between all ordered pairs of boxes (paper §III-A.2), by the one definition of
     each relation in :mod:`taskcond.relations` (rules after REFLECT).
@@ -209,11 +210,14 @@ def spatial_relations(
         thresholds: the rule constants.
         front: direction towards the robot/viewer; only its horizontal part counts.
         grippers: names of the boxes that are grippers.
+        soft: names of the boxes that are soft bodies (the cloth).
     """
-    gripper_names = set(grippers)
+    gripper_names, soft_names = set(grippers), set(soft)
     return relations(
         {
-            name: Box.of(box.lower, box.upper, box.center, gripper=name in gripper_names)
+            name: Box.of(
+                box.lower, box.upper, box.center, gripper=name in gripper_names, soft=name in soft_names
+            )
             for name, box in boxes.items()
         },
         thresholds,
@@ -280,7 +284,17 @@ class Perception:
 
         points = self._contact_points()
         predicates: set[Predicate] = set(
-            spatial_relations(boxes, cfg.thresholds, cfg.front, [g.name for g in self.scene.grippers])
+            spatial_relations(
+                boxes,
+                cfg.thresholds,
+                cfg.front,
+                [g.name for g in self.scene.grippers],
+                [
+                    b.name
+                    for b in self.scene.bodies
+                    if b.body_id in self.scene.soft_bodies and b.link_index == -1
+                ],
+            )
         )
         predicates.update(self._gripper_states(points))
         predicates.update(self._container_states())

@@ -181,7 +181,7 @@ class GroundTruth:
     def box(self, name: str) -> Box:
         """PyBullet's axis-aligned box of ``name`` (world frame, m), centred, as the relations read it."""
         lo, hi = self.scene.aabb(name)
-        return Box.of(lo, hi)
+        return Box.of(lo, hi, soft=name == "cloth" and self.scene.cloth is not None)
 
     def relation(self, relation: Relation, a: str, b: str) -> bool:
         """Whether ``A <relation> B`` holds now (:mod:`taskcond.relations`)."""
