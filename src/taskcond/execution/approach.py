@@ -673,10 +673,12 @@ class Approach:
         goals are within reach. On top: when the carried object's bottom would end more than
         :data:`PLACE_ABOVE` below the top of ``target_name``'s box, the goal is raised to put it that much
         above instead: a skill demonstrated with another object (``move_on_top-spatula-box`` for the mug)
-        holds it at another height. Returns the shift (3,) m of the goal (zero when the demonstrated spot
-        is clear and high enough). A demonstrated spot is where the demonstration's scene had room, not
-        where a random scene has (issue 31: the cube set down in front of the box onto the bottle that
-        stood there knocked it over)."""
+        holds it at another height. When no spot within reach keeps that far, the one that keeps farthest
+        from the others (:meth:`_clearest`), if it keeps farther than the demonstrated spot. Returns the
+        shift (3,) m of the goal (zero when the demonstrated spot is clear and high enough). A demonstrated
+        spot is where the demonstration's scene had room, not where a random scene has (issue 31: the cube
+        set down in front of the box onto the bottle that stood there knocked it over; a bowl set down in
+        front of the box, where the bottle stood and the toothpaste stood beside it, pushed it over)."""
         zero = np.zeros(3)
         carried = obs.grasped()
         if carried is None or carried not in obs.boxes or target_name not in obs.boxes:
@@ -699,20 +701,42 @@ class Approach:
         out = (middle - target[:2]) / max(float(np.linalg.norm(middle - target[:2])), 1e-9)
         if _gap(foot, others, np.zeros(2)) >= self.config.clearance:
             return np.array([0.0, 0.0, lift])
+        goals = [first.goal(first.dmp.y0, target), end]
+
+        def fits(shift: np.ndarray) -> bool:
+            keeps = _keeps_place(relation, middle, shift, support, out)
+            return keeps and all(self.world.reach_error(q + np.array([*shift, lift])) is None for q in goals)
+
+        return np.array([*self._clearest(foot, others, fits), lift])
+
+    def _clearest(
+        self,
+        foot: tuple[np.ndarray, np.ndarray],
+        others: Sequence[tuple[np.ndarray, np.ndarray]],
+        fits: Callable[[np.ndarray], bool],
+    ) -> np.ndarray:
+        """(2,) m: the horizontal shift of the footprint ``foot`` (lower and upper (2,) m corners) of
+        :meth:`_aside`, in steps of 2 cm up to 20 cm in 16 directions, that ``fits`` (the carried object
+        keeps its place, the hand's goals are in reach) and keeps :attr:`ExecutionConfig.clearance` from the
+        ``others``' footprints, the nearest first and of those the farthest from them; when none keeps that
+        far, the one that keeps farthest (or reaches least into one, :func:`_gap`), if farther than the
+        unshifted foot; else zero."""
         angles = np.linspace(0.0, 2 * math.pi, 16, endpoint=False)
+        clearest, clearest_gap = np.zeros(2), _gap(foot, others, np.zeros(2))
         for radius in np.arange(0.02, 0.201, 0.02):
             best, best_gap = None, self.config.clearance
             for angle in angles:
                 shift = radius * np.array([math.cos(angle), math.sin(angle)])
-                keeps = _keeps_place(relation, middle, shift, support, out)
-                if not keeps or (g := _gap(foot, others, shift)) < best_gap:
+                g = _gap(foot, others, shift)
+                if (g < best_gap and g <= clearest_gap) or not fits(shift):
                     continue
-                goals = [first.goal(first.dmp.y0, target), end]
-                if all(self.world.reach_error(q + np.array([*shift, lift])) is None for q in goals):
+                if g >= best_gap:
                     best, best_gap = shift, g
+                if g > clearest_gap:
+                    clearest, clearest_gap = shift, g
             if best is not None:
-                return np.array([*best, lift])
-        return np.array([0.0, 0.0, lift])
+                return best
+        return clearest
 
     # long: one search over the hand's sides; its two closures share the sampled way
     def _turn(self, g: TargetAim) -> float:
@@ -875,12 +899,18 @@ def _gap(
     foot: tuple[np.ndarray, np.ndarray], others: Sequence[tuple[np.ndarray, np.ndarray]], shift: np.ndarray
 ) -> float:
     """Least horizontal distance (m) from the footprint ``foot`` (lower and upper (2,) m corners) moved by
-    ``shift`` (2,) m to any of the ``others``' footprints; infinite without others."""
+    ``shift`` (2,) m to any of the ``others``' footprints, negative by how far it reaches into one (the
+    least slide out of it); infinite without others."""
     flo, fhi = foot[0] + shift, foot[1] + shift
-    return min(
-        (float(np.linalg.norm(np.maximum(np.maximum(a - fhi, flo - b), 0.0))) for a, b in others),
-        default=np.inf,
-    )
+    return min((_apart(np.maximum(a - fhi, flo - b)) for a, b in others), default=np.inf)
+
+
+def _apart(outside: np.ndarray) -> float:
+    """Distance (m) between two footprints that lie ``outside`` (2,) m of each other along x and y (each
+    negative where they overlap along it), negative by the shallower overlap when they overlap both ways."""
+    if np.all(outside < 0.0):
+        return float(outside.max())
+    return float(np.linalg.norm(np.maximum(outside, 0.0)))
 
 
 ASIDE_OUT = 0.10
@@ -965,11 +995,13 @@ def _descends(skill: Skill) -> bool:
 
 def _overhung(held: str, place: np.ndarray, here: np.ndarray, obs: Observation, arms: Sequence[str]) -> bool:
     """Whether a perceived box hangs over the place where the hand, now at ``here`` (3,) m holding
-    ``held``, sets it down with the hand at ``place`` (3,) m: its bottom above the carried object's bottom
-    there and its footprint within :data:`CARRY_MARGIN` of the carried object's (an open drawer above the
-    spot in front of the cabinet), so that the object cannot come down onto the place from above."""
+    ``held``, sets it down with the hand at ``place`` (3,) m: its bottom more than :data:`CARRY_MARGIN`
+    above the carried object's bottom there and its footprint within :data:`CARRY_MARGIN` of the carried
+    object's (an open drawer above the spot in front of the cabinet), so that the object cannot come down
+    onto the place from above. What stands on the same floor beside the place (its perceived bottom a
+    centimetre higher by perception noise) does not hang over it."""
     lower, upper = obs.boxes[held]
-    bottom = float(place[2] - (here[2] - lower[2]))
+    bottom = float(place[2] - (here[2] - lower[2])) + CARRY_MARGIN
     half = (upper[:2] - lower[:2]) / 2 + CARRY_MARGIN
     return any(
         float(lo[2]) > bottom and np.all(lo[:2] < place[:2] + half) and np.all(hi[:2] > place[:2] - half)
