@@ -668,9 +668,10 @@ class Approach:
         ``target`` (3,) m) the carried object goes: the demonstrated spot (the skill's end: the approach's
         goal plus the later pieces' displacements), or when the carried object's footprint there (its
         perceived box, carried with the hand) comes nearer than :attr:`ExecutionConfig.clearance` to another
-        object's box, the nearest spot that is clear, in steps of 2 cm up to 20 cm in 16 directions, where
-        the object still stands in ``relation`` to ``target_name`` (:func:`_keeps_place`) and the hand's
-        goals are within reach. On top: when the carried object's bottom would end more than
+        object's box that reaches higher than that above the carried object's bottom there (not a drawer
+        under the cabinet's top), the nearest spot that is clear, in steps of 2 cm up to 20 cm in 16
+        directions, where the object still stands in ``relation`` to ``target_name`` (:func:`_keeps_place`)
+        and the hand's goals are within reach. On top: when the carried object's bottom would end more than
         :data:`PLACE_ABOVE` below the top of ``target_name``'s box, the goal is raised to put it that much
         above instead: a skill demonstrated with another object (``move_on_top-spatula-box`` for the mug)
         holds it at another height. When no spot within reach keeps that far, the one that keeps farthest
@@ -693,11 +694,12 @@ class Approach:
         lo, hi = obs.boxes[carried]
         foot = (lo[:2] - here[:2] + end[:2], hi[:2] - here[:2] + end[:2])
         middle = (obs.centers.get(carried, (lo + hi) / 2)[:2] - here[:2]) + end[:2]
-        skip = (target_name, carried, *self.world.ground, *self.world.arms)
-        others = [(a[:2], b[:2]) for name, (a, b) in obs.boxes.items() if name not in skip]
         support = tuple(b[:2] for b in obs.boxes[target_name])
         below = float(obs.boxes[target_name][1][2] - (end[2] - here[2] + lo[2]))
         lift = below + PLACE_ABOVE if below > PLACE_ABOVE and relation is Relation.ABOVE else 0.0
+        bottom = float(end[2] - here[2] + lo[2]) + lift + self.config.clearance
+        skip = (target_name, carried, *self.world.ground, *self.world.arms)
+        others = [(a[:2], b[:2]) for name, (a, b) in obs.boxes.items() if name not in skip and b[2] > bottom]
         out = (middle - target[:2]) / max(float(np.linalg.norm(middle - target[:2])), 1e-9)
         if _gap(foot, others, np.zeros(2)) >= self.config.clearance:
             return np.array([0.0, 0.0, lift])
