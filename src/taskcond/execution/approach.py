@@ -699,43 +699,56 @@ class Approach:
         lift = below + PLACE_ABOVE if below > PLACE_ABOVE and relation is Relation.ABOVE else 0.0
         bottom = float(end[2] - here[2] + lo[2]) + lift + self.config.clearance
         skip = (target_name, carried, *self.world.ground, *self.world.arms)
-        others = [(a[:2], b[:2]) for name, (a, b) in obs.boxes.items() if name not in skip and b[2] > bottom]
+        near = {n: (a[:2], b[:2]) for n, (a, b) in obs.boxes.items() if n not in skip and b[2] > bottom}
+        others = list(near.values())
         out = (middle - target[:2]) / max(float(np.linalg.norm(middle - target[:2])), 1e-9)
         if _gap(foot, others, np.zeros(2)) >= self.config.clearance:
             return np.array([0.0, 0.0, lift])
+        free = set(_bystanders(target_name, obs))
+        standing, fixed = (
+            [b for n, b in near.items() if n in free],
+            [b for n, b in near.items() if n not in free],
+        )
         goals = [first.goal(first.dmp.y0, target), end]
 
         def fits(shift: np.ndarray) -> bool:
             keeps = _keeps_place(relation, middle, shift, support, out)
             return keeps and all(self.world.reach_error(q + np.array([*shift, lift])) is None for q in goals)
 
-        return np.array([*self._clearest(foot, others, fits), lift])
+        return np.array([*self._clearest(foot, standing, fixed, fits), lift])
 
     def _clearest(
         self,
         foot: tuple[np.ndarray, np.ndarray],
-        others: Sequence[tuple[np.ndarray, np.ndarray]],
+        standing: Sequence[tuple[np.ndarray, np.ndarray]],
+        fixed: Sequence[tuple[np.ndarray, np.ndarray]],
         fits: Callable[[np.ndarray], bool],
     ) -> np.ndarray:
         """(2,) m: the horizontal shift of the footprint ``foot`` (lower and upper (2,) m corners) of
         :meth:`_aside`, in steps of 2 cm up to 20 cm in 16 directions, that ``fits`` (the carried object
         keeps its place, the hand's goals are in reach) and keeps :attr:`ExecutionConfig.clearance` from the
-        ``others``' footprints, the nearest first and of those the farthest from them; when none keeps that
-        far, the one that keeps farthest (or reaches least into one, :func:`_gap`), if farther than the
-        unshifted foot; else zero."""
-        angles = np.linspace(0.0, 2 * math.pi, 16, endpoint=False)
-        clearest, clearest_gap = np.zeros(2), _gap(foot, others, np.zeros(2))
+        footprints of the free objects ``standing`` there (:func:`_bystanders`) and the ``fixed`` rest, the
+        nearest first and of those the farthest from them. When none keeps that far and the unshifted foot
+        comes nearer than that to a free object (what it would knock over), the one that keeps farthest from
+        those (or reaches least into one, :func:`_gap`) and no nearer to the fixed rest than the unshifted
+        foot or the clearance; else zero: a fixed part of the scene in the way (an open drawer in front of
+        the cabinet) is not worth leaving the demonstrated spot for."""
+        zero = np.zeros(2)
+        clearest, clearest_gap = zero, _gap(foot, standing, zero)
+        if clearest_gap >= self.config.clearance:
+            clearest_gap = math.inf
+        others = [*standing, *fixed]
+        floor = min(_gap(foot, fixed, zero), self.config.clearance)
         for radius in np.arange(0.02, 0.201, 0.02):
             best, best_gap = None, self.config.clearance
-            for angle in angles:
-                shift = radius * np.array([math.cos(angle), math.sin(angle)])
-                g = _gap(foot, others, shift)
-                if (g < best_gap and g <= clearest_gap) or not fits(shift):
+            for shift in radius * np.column_stack([np.cos(ANGLES), np.sin(ANGLES)]):
+                g, free = _gap(foot, others, shift), _gap(foot, standing, shift)
+                if (g < best_gap and free <= clearest_gap) or not fits(shift):
                     continue
                 if g >= best_gap:
                     best, best_gap = shift, g
-                if g > clearest_gap:
-                    clearest, clearest_gap = shift, g
+                elif free > clearest_gap and _gap(foot, fixed, shift) >= floor:
+                    clearest, clearest_gap = shift, free
             if best is not None:
                 return best
         return clearest
@@ -915,6 +928,9 @@ def _apart(outside: np.ndarray) -> float:
     return float(np.linalg.norm(np.maximum(outside, 0.0)))
 
 
+ANGLES = np.linspace(0.0, 2 * math.pi, 16, endpoint=False)
+"""Directions (rad from world x) in which :meth:`Approach._clearest` looks for a spot beside the
+demonstrated one."""
 ASIDE_OUT = 0.10
 """Farthest (m) a carried object set down in front of its target is moved out from the demonstrated spot,
 away from the target, to clear a neighbour (:meth:`Approach._aside`)."""
