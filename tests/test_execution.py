@@ -35,7 +35,9 @@ from taskcond.dmp import rollout
 from taskcond.execution.approach import (
     CARRY_MARGIN,
     _carry_height,
+    _gap,
     _keeps_place,
+    _overhung,
     _support_below,
     heading_turn,
 )
@@ -640,6 +642,31 @@ def test_a_place_in_front_moved_clear_of_a_neighbour_stays_in_front() -> None:
     assert not _keeps_place(Relation.IN_FRONT_OF, middle, np.array([-0.12, 0.0]), box, out)  # too far
     assert not _keeps_place(Relation.ABOVE, middle, np.zeros(2), box, out)  # not over the box
     assert _keeps_place(Relation.ABOVE, np.array([0.6, -0.1]), np.array([0.04, 0.04]), box, out)
+
+
+def test_only_what_hangs_over_a_place_not_what_stands_beside_it_keeps_a_carry_from_coming_down() -> None:
+    """Issue 31: the toothpaste standing beside the place of a carried spatula, its perceived bottom 1 cm up
+    by noise, does not hang over the place (the carry tried again came the demonstrated low way and swept
+    it over); an open drawer 15 cm up does. Footprints that overlap are negatively apart by the shallower
+    overlap, so that the least overlap can be told from the most."""
+
+    def box(lo, hi):
+        return np.array(lo, float), np.array(hi, float)
+
+    held = box([0.20, -0.20, 0.0], [0.30, 0.0, 0.02])  # carried with the hand 4 cm above its bottom
+    here, place = np.array([0.25, -0.10, 0.04]), np.array([0.29, -0.12, 0.045])  # its bottom 5 mm up
+    beside = Observation(
+        frozenset(), {}, (), {"spatula": held, "toothpaste": box([0.34, -0.2, 0.01], [0.37, -0.17, 0.1])}
+    )
+    drawer = Observation(
+        frozenset(), {}, (), {"spatula": held, "top drawer": box([0.2, -0.3, 0.15], [0.6, 0.1, 0.3])}
+    )
+    assert not _overhung("spatula", place, here, beside, ("gripper",))
+    assert _overhung("spatula", place, here, drawer, ("gripper",))
+    foot = (np.array([0.0, 0.0]), np.array([0.1, 0.1]))
+    assert _gap(foot, [(np.array([0.13, 0.0]), np.array([0.2, 0.1]))], np.zeros(2)) == pytest.approx(0.03)
+    assert _gap(foot, [(np.array([0.08, 0.05]), np.array([0.2, 0.2]))], np.zeros(2)) == pytest.approx(-0.02)
+    assert _gap(foot, [(np.array([0.02, 0.05]), np.array([0.2, 0.2]))], np.zeros(2)) == pytest.approx(-0.05)
 
 
 def test_a_tracked_target_is_the_mean_of_its_perceived_centres() -> None:

@@ -31,14 +31,15 @@ def library():
     return learn_library(None, ["grasp-bowl", "grasp-bottle"])
 
 
-def _scene(places: dict[str, tuple[float, float]]) -> tuple[KitchenEnv, KitchenWorld]:
-    """The default kitchen with ``places`` (name → xy, m) and every other free object in a row at y = 0.3."""
+def _scene(places: dict[str, tuple[float, ...]]) -> tuple[KitchenEnv, KitchenWorld]:
+    """The default kitchen with ``places`` (name → x, y in m, and optionally a yaw in rad) and every other
+    free object in a row at y = 0.3."""
     env = KitchenEnv(FreeTask("anything"))
     env.reset(seed=0)
     for k, name in enumerate(n for n in env.scene.free_objects if n not in places):
         env.scene.place(name, (0.30 + 0.06 * k, 0.30), 0.0)
-    for name, xy in places.items():
-        env.scene.place(name, xy, 0.0)
+    for name, (x, y, *yaw) in places.items():
+        env.scene.place(name, (x, y), yaw[0] if yaw else 0.0)
     return env, KitchenWorld(env)
 
 
@@ -389,3 +390,35 @@ def test_an_open_goes_over_a_bystander_its_demonstrated_way_would_sweep_and_leav
                 assert "can" in obs.lying
         finally:
             env.close()
+
+
+def test_a_carry_whose_spot_is_taken_sets_its_object_down_at_the_clearest_spot_beside_it() -> None:
+    """Issue 31: the bottle stands on the demonstrated spot in front of the box and the toothpaste beside
+    it, so that no spot in front of the box keeps the carried mug the clearance from both. The mug goes to
+    the spot that keeps farthest from them (the trace's aside moves it), comes straight down beside the
+    bottle and both stand at the end; set down on the demonstrated spot, it came down onto the bottle and
+    knocked it over (start seed 1000 of the combination benchmark)."""
+    library = learn_library(None, ["grasp-mug", "move_in_front-mug-box", "release-mug"])
+    env, world = _scene(
+        {
+            "bottle": (0.316, -0.145, -1.125),
+            "toothpaste": (0.345, 0.034, 1.474),
+            "mug": (0.404, -0.448, -1.271),
+            "bowl": (0.531, 0.112, -2.284),
+            "spatula": (0.253, -0.397, 1.305),
+            "cube": (0.30, 0.109, 2.423),
+            "can": (0.544, -0.319, -1.544),
+        }
+    )
+    try:
+        bottle = world.observe().centers["bottle"]
+        executor = Executor(world, library, method="env", source=EnvConditions(library))
+        result = executor.run(["grasp mug", "move mug in front of box", "release mug"])
+        obs = world.observe()
+        assert result.completed and not obs.lying, obs.lying
+        assert np.linalg.norm(obs.centers["bottle"][:2] - bottle[:2]) < 0.01
+        assert obs.holds(SpatialRelation("mug", Relation.IN_FRONT_OF, "box"))
+        (carry,) = [e for e in result.events if e.kind == "primitive" and e.task.startswith("move")]
+        assert np.linalg.norm(carry.data["aside"][:2]) > 0.05
+    finally:
+        env.close()

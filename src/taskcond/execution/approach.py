@@ -668,15 +668,18 @@ class Approach:
         ``target`` (3,) m) the carried object goes: the demonstrated spot (the skill's end: the approach's
         goal plus the later pieces' displacements), or when the carried object's footprint there (its
         perceived box, carried with the hand) comes nearer than :attr:`ExecutionConfig.clearance` to another
-        object's box, the nearest spot that is clear, in steps of 2 cm up to 20 cm in 16 directions, where
-        the object still stands in ``relation`` to ``target_name`` (:func:`_keeps_place`) and the hand's
-        goals are within reach. On top: when the carried object's bottom would end more than
+        object's box that reaches higher than that above the carried object's bottom there (not a drawer
+        under the cabinet's top), the nearest spot that is clear, in steps of 2 cm up to 20 cm in 16
+        directions, where the object still stands in ``relation`` to ``target_name`` (:func:`_keeps_place`)
+        and the hand's goals are within reach. On top: when the carried object's bottom would end more than
         :data:`PLACE_ABOVE` below the top of ``target_name``'s box, the goal is raised to put it that much
         above instead: a skill demonstrated with another object (``move_on_top-spatula-box`` for the mug)
-        holds it at another height. Returns the shift (3,) m of the goal (zero when the demonstrated spot
-        is clear and high enough). A demonstrated spot is where the demonstration's scene had room, not
-        where a random scene has (issue 31: the cube set down in front of the box onto the bottle that
-        stood there knocked it over)."""
+        holds it at another height. When no spot within reach keeps that far, the one that keeps farthest
+        from the others (:meth:`_clearest`), if it keeps farther than the demonstrated spot. Returns the
+        shift (3,) m of the goal (zero when the demonstrated spot is clear and high enough). A demonstrated
+        spot is where the demonstration's scene had room, not where a random scene has (issue 31: the cube
+        set down in front of the box onto the bottle that stood there knocked it over; a bowl set down in
+        front of the box, where the bottle stood and the toothpaste stood beside it, pushed it over)."""
         zero = np.zeros(3)
         carried = obs.grasped()
         if carried is None or carried not in obs.boxes or target_name not in obs.boxes:
@@ -691,28 +694,64 @@ class Approach:
         lo, hi = obs.boxes[carried]
         foot = (lo[:2] - here[:2] + end[:2], hi[:2] - here[:2] + end[:2])
         middle = (obs.centers.get(carried, (lo + hi) / 2)[:2] - here[:2]) + end[:2]
-        skip = (target_name, carried, *self.world.ground, *self.world.arms)
-        others = [(a[:2], b[:2]) for name, (a, b) in obs.boxes.items() if name not in skip]
         support = tuple(b[:2] for b in obs.boxes[target_name])
         below = float(obs.boxes[target_name][1][2] - (end[2] - here[2] + lo[2]))
         lift = below + PLACE_ABOVE if below > PLACE_ABOVE and relation is Relation.ABOVE else 0.0
+        bottom = float(end[2] - here[2] + lo[2]) + lift + self.config.clearance
+        skip = (target_name, carried, *self.world.ground, *self.world.arms)
+        near = {n: (a[:2], b[:2]) for n, (a, b) in obs.boxes.items() if n not in skip and b[2] > bottom}
+        others = list(near.values())
         out = (middle - target[:2]) / max(float(np.linalg.norm(middle - target[:2])), 1e-9)
         if _gap(foot, others, np.zeros(2)) >= self.config.clearance:
             return np.array([0.0, 0.0, lift])
-        angles = np.linspace(0.0, 2 * math.pi, 16, endpoint=False)
+        free = set(_bystanders(target_name, obs))
+        standing, fixed = (
+            [b for n, b in near.items() if n in free],
+            [b for n, b in near.items() if n not in free],
+        )
+        goals = [first.goal(first.dmp.y0, target), end]
+
+        def fits(shift: np.ndarray) -> bool:
+            keeps = _keeps_place(relation, middle, shift, support, out)
+            return keeps and all(self.world.reach_error(q + np.array([*shift, lift])) is None for q in goals)
+
+        return np.array([*self._clearest(foot, standing, fixed, fits), lift])
+
+    def _clearest(
+        self,
+        foot: tuple[np.ndarray, np.ndarray],
+        standing: Sequence[tuple[np.ndarray, np.ndarray]],
+        fixed: Sequence[tuple[np.ndarray, np.ndarray]],
+        fits: Callable[[np.ndarray], bool],
+    ) -> np.ndarray:
+        """(2,) m: the horizontal shift of the footprint ``foot`` (lower and upper (2,) m corners) of
+        :meth:`_aside`, in steps of 2 cm up to 20 cm in 16 directions, that ``fits`` (the carried object
+        keeps its place, the hand's goals are in reach) and keeps :attr:`ExecutionConfig.clearance` from the
+        footprints of the free objects ``standing`` there (:func:`_bystanders`) and the ``fixed`` rest, the
+        nearest first and of those the farthest from them. When none keeps that far and the unshifted foot
+        comes nearer than that to a free object (what it would knock over), the one that keeps farthest from
+        those (or reaches least into one, :func:`_gap`) and no nearer to the fixed rest than the unshifted
+        foot or the clearance; else zero: a fixed part of the scene in the way (an open drawer in front of
+        the cabinet) is not worth leaving the demonstrated spot for."""
+        zero = np.zeros(2)
+        clearest, clearest_gap = zero, _gap(foot, standing, zero)
+        if clearest_gap >= self.config.clearance:
+            clearest_gap = math.inf
+        others = [*standing, *fixed]
+        floor = min(_gap(foot, fixed, zero), self.config.clearance)
         for radius in np.arange(0.02, 0.201, 0.02):
             best, best_gap = None, self.config.clearance
-            for angle in angles:
-                shift = radius * np.array([math.cos(angle), math.sin(angle)])
-                keeps = _keeps_place(relation, middle, shift, support, out)
-                if not keeps or (g := _gap(foot, others, shift)) < best_gap:
+            for shift in radius * np.column_stack([np.cos(ANGLES), np.sin(ANGLES)]):
+                g, free = _gap(foot, others, shift), _gap(foot, standing, shift)
+                if (g < best_gap and free <= clearest_gap) or not fits(shift):
                     continue
-                goals = [first.goal(first.dmp.y0, target), end]
-                if all(self.world.reach_error(q + np.array([*shift, lift])) is None for q in goals):
+                if g >= best_gap:
                     best, best_gap = shift, g
+                elif free > clearest_gap and _gap(foot, fixed, shift) >= floor:
+                    clearest, clearest_gap = shift, free
             if best is not None:
-                return np.array([*best, lift])
-        return np.array([0.0, 0.0, lift])
+                return best
+        return clearest
 
     # long: one search over the hand's sides; its two closures share the sampled way
     def _turn(self, g: TargetAim) -> float:
@@ -875,14 +914,23 @@ def _gap(
     foot: tuple[np.ndarray, np.ndarray], others: Sequence[tuple[np.ndarray, np.ndarray]], shift: np.ndarray
 ) -> float:
     """Least horizontal distance (m) from the footprint ``foot`` (lower and upper (2,) m corners) moved by
-    ``shift`` (2,) m to any of the ``others``' footprints; infinite without others."""
+    ``shift`` (2,) m to any of the ``others``' footprints, negative by how far it reaches into one (the
+    least slide out of it); infinite without others."""
     flo, fhi = foot[0] + shift, foot[1] + shift
-    return min(
-        (float(np.linalg.norm(np.maximum(np.maximum(a - fhi, flo - b), 0.0))) for a, b in others),
-        default=np.inf,
-    )
+    return min((_apart(np.maximum(a - fhi, flo - b)) for a, b in others), default=np.inf)
 
 
+def _apart(outside: np.ndarray) -> float:
+    """Distance (m) between two footprints that lie ``outside`` (2,) m of each other along x and y (each
+    negative where they overlap along it), negative by the shallower overlap when they overlap both ways."""
+    if np.all(outside < 0.0):
+        return float(outside.max())
+    return float(np.linalg.norm(np.maximum(outside, 0.0)))
+
+
+ANGLES = np.linspace(0.0, 2 * math.pi, 16, endpoint=False)
+"""Directions (rad from world x) in which :meth:`Approach._clearest` looks for a spot beside the
+demonstrated one."""
 ASIDE_OUT = 0.10
 """Farthest (m) a carried object set down in front of its target is moved out from the demonstrated spot,
 away from the target, to clear a neighbour (:meth:`Approach._aside`)."""
@@ -965,11 +1013,13 @@ def _descends(skill: Skill) -> bool:
 
 def _overhung(held: str, place: np.ndarray, here: np.ndarray, obs: Observation, arms: Sequence[str]) -> bool:
     """Whether a perceived box hangs over the place where the hand, now at ``here`` (3,) m holding
-    ``held``, sets it down with the hand at ``place`` (3,) m: its bottom above the carried object's bottom
-    there and its footprint within :data:`CARRY_MARGIN` of the carried object's (an open drawer above the
-    spot in front of the cabinet), so that the object cannot come down onto the place from above."""
+    ``held``, sets it down with the hand at ``place`` (3,) m: its bottom more than :data:`CARRY_MARGIN`
+    above the carried object's bottom there and its footprint within :data:`CARRY_MARGIN` of the carried
+    object's (an open drawer above the spot in front of the cabinet), so that the object cannot come down
+    onto the place from above. What stands on the same floor beside the place (its perceived bottom a
+    centimetre higher by perception noise) does not hang over it."""
     lower, upper = obs.boxes[held]
-    bottom = float(place[2] - (here[2] - lower[2]))
+    bottom = float(place[2] - (here[2] - lower[2])) + CARRY_MARGIN
     half = (upper[:2] - lower[:2]) / 2 + CARRY_MARGIN
     return any(
         float(lo[2]) > bottom and np.all(lo[:2] < place[:2] + half) and np.all(hi[:2] > place[:2] - half)
