@@ -221,21 +221,18 @@ class Segment:
         approach it is slerped from that rotation to identity, so the hand arrives in the demonstrated
         orientation relative to the world (the target's frame). A parallel gripper turned half a turn
         about its own axis (its z) holds the same way, so R_d is taken as it was or half a turn turned,
-        whichever is nearer to ``start``: at the piece's start when Δ is constant (a hand holding a bowl
-        by its wall then keeps the bowl on its side instead of swinging it round the hand), at its end for
-        the approach, where the hand turns from ``start`` to the arrival (the hand turns at most a quarter
-        turn about its axis, not three quarters into the end of its wrist's range: issue 31)."""
+        whichever starts nearer to ``start``: a hand holding a bowl by its wall then keeps the bowl on its
+        side instead of swinging it round the hand."""
         s = np.clip(np.asarray(fraction, dtype=float), 0.0, 1.0)
         u = np.atleast_1d(s)
-        arrives = self.anchor == "target" and not hold
-        weight = 1.0 - u * u * (3 - 2 * u) if arrives else np.ones_like(u)
+        weight = 1.0 - u * u * (3 - 2 * u) if self.anchor == "target" and not hold else np.ones_like(u)
         start = np.asarray(start, float)
         spin = Rotation.from_rotvec([0.0, 0.0, turn])
         arms = []
         for arm, profile in enumerate(self._profiles):
             here = Rotation.from_quat(start[4 * arm : 4 * arm + 4])
             first = spin * Rotation.from_quat(self.orientations[0, 4 * arm : 4 * arm + 4])
-            twin = twin_turn(spin * profile(1.0) if arrives else first, here)
+            twin = twin_turn(first, here)
             offset = (here * (first * twin).inv()).as_rotvec()
             arms.append(
                 (Rotation.from_rotvec(weight[:, None] * offset[None, :]) * spin * profile(u) * twin).as_quat()
