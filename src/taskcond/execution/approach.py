@@ -57,20 +57,17 @@ def _conditioned(
     replayed mirrored or blown up; a dimension the demonstration hardly moved (less than
     :data:`MIN_SCALED`) is always unscaled, so that a millimetre more or less of offset does not switch
     its demonstrated excursion on or off. A ``descent`` (:attr:`Aim.descent`) keeps no horizontal forcing
-    term, nor a vertical one it could not scale: the hand comes straight down onto its goal, whatever way
-    the demonstration came in sideways, and never dips below it replaying the excursion of a piece that
-    rose (a carry's set-down borrowing the lift of its first piece pressed the object into the place,
-    issue 31). A ``straight`` piece (:attr:`Aim.detour`) keeps none at all: a straight line to its goal."""
+    term: the hand comes straight down onto its goal, whatever way the demonstration came in sideways. A
+    ``straight`` piece (:attr:`Aim.detour`) keeps none at all: a straight line to its goal."""
     dmp = seg.dmp
     if straight:
         return dmp.unforced(np.ones(dmp.n_dims, dtype=bool))
+    if descent:
+        dmp = dmp.unforced(np.tile([True, True, False], dmp.n_dims // 3))
     demo = dmp.goal - dmp.y0
     with np.errstate(divide="ignore", invalid="ignore"):
         ratio = np.where(dmp.goal_scaled, (np.asarray(goal) - np.asarray(start)) / demo, 1.0)
     bad = dmp.goal_scaled & ((ratio < 0) | (np.abs(ratio) > MAX_STRETCH) | (np.abs(demo) < MIN_SCALED))
-    if descent:  # forced only where Eq. 2 scales a vertical demonstrated offset
-        vertical = np.tile([False, False, True], dmp.n_dims // 3)
-        return dmp.unforced(~(vertical & dmp.goal_scaled & ~bad))
     return dmp.unscaled(bad) if bad.any() else dmp
 
 
