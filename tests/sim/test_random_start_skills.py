@@ -21,6 +21,7 @@ from taskcond.execution.approach import BACK_OFF_HEIGHT, GRIP_DEPTH
 from taskcond.execution.config import ExecutionConfig
 from taskcond.execution.executor import Executor
 from taskcond.execution.sources import EnvConditions
+from taskcond.sim.franka import FINGER_OPEN
 from taskcond.tasks.free import RANDOM_MIN_RADIUS, FreeTask, random_start
 from taskcond.worlds.kitchen import KitchenWorld
 
@@ -392,30 +393,40 @@ def test_an_open_goes_over_a_bystander_its_demonstrated_way_would_sweep_and_leav
             env.close()
 
 
-def test_a_grasp_turned_half_round_its_object_arrives_in_the_twin_nearer_the_hand_and_holds() -> None:
-    """Issue 31: from the random start of seed 1001 with the hand where `open bottom drawer` left it, the
-    toothpaste's grasp is turned half a turn about it (the bottle stands 9 cm away). The parallel gripper
-    arrives in the half-turn twin nearer the hand, turning less than a quarter turn about its axis; the
-    arrival the demonstration's start picked turned the wrist into the end of its range, the arm lost its
-    pose, closed in the air and knocked the toothpaste over."""
-    library = learn_library(None, ["grasp-toothpaste"])
-    env = KitchenEnv(FreeTask("grasp toothpaste", ("grasp toothpaste",), start="random"))
-    env.reset(seed=1001)
+def test_a_release_touching_a_neighbour_backs_off_straight_up_and_leaves_its_object_standing() -> None:
+    """Issue 31: the toothpaste set down with the bottle standing against the hand's open side. Opening,
+    the finger touches the bottle (an unallowed contact of `release toothpaste`); Alg. 2's sideways goal
+    (goalPos − collPos) would drag the open fingers through the toothpaste just let go and knock it over.
+    A primitive that lets go moves its goal straight up instead: the toothpaste still stands."""
+    library = learn_library(None, ["grasp-toothpaste", "release-toothpaste"])
+    env, world = _scene(
+        {
+            "toothpaste": (0.40, -0.25),
+            "bottle": (0.15, 0.45),
+            "bowl": (0.30, 0.45),
+            "mug": (0.45, 0.40),
+            "spatula": (0.25, 0.30),
+            "cube": (0.45, 0.20),
+            "can": (0.30, 0.15),
+        }
+    )
     try:
-        q = np.array([0.55, 0.14, 0.55, -2.49, -1.48, 2.38, 0.02])  # the hand 15 cm above the drawer's handle
-        env.robot.reset(q)
-        env._q = q  # the IK's seed: where the arm is
-        env.settle(0.2)
-        world = KitchenWorld(env, noise_sigma=0.005, seed=1001)
-        before = Rotation.from_quat(world.ee_pose()[1])
         executor = Executor(world, library, method="env", source=EnvConditions(library))
-        result = executor.run(["grasp toothpaste"])
-        (aim,) = [e for e in result.events if e.kind == "primitive"][:1]
-        assert abs(aim.data.get("turn_degrees", 0)) > 90  # turned about the toothpaste
-        turned = before.inv() * Rotation.from_quat(world.ee_pose()[1])
-        assert turned.magnitude() < math.radians(100)
+        assert executor.run(["grasp toothpaste"]).completed and world.observe().grasped() == "toothpaste"
+        position, orientation = world.ee_pose()
+        down = np.array([0.0, 0.0, world.observe().boxes["toothpaste"][0][2] - 0.002])
+        for k in range(1, 41):
+            env.step(np.concatenate([position - down * min(1.0, k / 30), orientation, [1.0]]))
+        centre = world.observe().centers["toothpaste"]
+        side = Rotation.from_quat(world.ee_pose()[1]).apply([0.0, 1.0, 0.0])  # the fingers open along it
+        side = side[:2] / np.linalg.norm(side[:2])
+        bottle = env.scene.specs["bottle"]
+        env.scene.place("bottle", centre[:2] + side * (FINGER_OPEN + bottle.radius - 0.005), 0.0)
+        assert not world.observe().lying
+        result = executor.run(["release toothpaste"])
+        shifts = [e.data["shift"] for e in result.events if e.kind == "collision"]
+        assert shifts and all(abs(s[0]) + abs(s[1]) < 1e-9 and s[2] > 0 for s in shifts), shifts
         obs = world.observe()
-        assert result.completed and obs.grasped() == "toothpaste"
-        assert not obs.lying, obs.lying
+        assert obs.grasped() is None and "toothpaste" not in obs.lying, obs.lying
     finally:
         env.close()
