@@ -12,6 +12,7 @@ import pytest
 pytest.importorskip("pybullet")
 
 import pybullet
+from scipy.spatial.transform import Rotation
 
 from taskcond.application.demonstrations import learn_library
 from taskcond.conditions import ContainerState, Relation, SpatialRelation
@@ -20,6 +21,7 @@ from taskcond.execution.approach import BACK_OFF_HEIGHT, GRIP_DEPTH
 from taskcond.execution.config import ExecutionConfig
 from taskcond.execution.executor import Executor
 from taskcond.execution.sources import EnvConditions
+from taskcond.sim.franka import FINGER_OPEN
 from taskcond.tasks.free import RANDOM_MIN_RADIUS, FreeTask, random_start
 from taskcond.worlds.kitchen import KitchenWorld
 
@@ -420,5 +422,44 @@ def test_a_carry_whose_spot_is_taken_sets_its_object_down_at_the_clearest_spot_b
         assert obs.holds(SpatialRelation("mug", Relation.IN_FRONT_OF, "box"))
         (carry,) = [e for e in result.events if e.kind == "primitive" and e.task.startswith("move")]
         assert np.linalg.norm(carry.data["aside"][:2]) > 0.05
+    finally:
+        env.close()
+
+
+def test_a_release_touching_a_neighbour_backs_off_straight_up_and_leaves_its_object_standing() -> None:
+    """Issue 31: the toothpaste set down with the bottle standing against the hand's open side. Opening,
+    the finger touches the bottle (an unallowed contact of `release toothpaste`); Alg. 2's sideways goal
+    (goalPos − collPos) would drag the open fingers through the toothpaste just let go and knock it over.
+    A primitive that lets go moves its goal straight up instead: the toothpaste still stands."""
+    library = learn_library(None, ["grasp-toothpaste", "release-toothpaste"])
+    env, world = _scene(
+        {
+            "toothpaste": (0.40, -0.25),
+            "bottle": (0.15, 0.45),
+            "bowl": (0.30, 0.45),
+            "mug": (0.45, 0.40),
+            "spatula": (0.25, 0.30),
+            "cube": (0.45, 0.20),
+            "can": (0.30, 0.15),
+        }
+    )
+    try:
+        executor = Executor(world, library, method="env", source=EnvConditions(library))
+        assert executor.run(["grasp toothpaste"]).completed and world.observe().grasped() == "toothpaste"
+        position, orientation = world.ee_pose()
+        down = np.array([0.0, 0.0, world.observe().boxes["toothpaste"][0][2] - 0.002])
+        for k in range(1, 41):
+            env.step(np.concatenate([position - down * min(1.0, k / 30), orientation, [1.0]]))
+        centre = world.observe().centers["toothpaste"]
+        side = Rotation.from_quat(world.ee_pose()[1]).apply([0.0, 1.0, 0.0])  # the fingers open along it
+        side = side[:2] / np.linalg.norm(side[:2])
+        bottle = env.scene.specs["bottle"]
+        env.scene.place("bottle", centre[:2] + side * (FINGER_OPEN + bottle.radius - 0.005), 0.0)
+        assert not world.observe().lying
+        result = executor.run(["release toothpaste"])
+        shifts = [e.data["shift"] for e in result.events if e.kind == "collision"]
+        assert shifts and all(abs(s[0]) + abs(s[1]) < 1e-9 and s[2] > 0 for s in shifts), shifts
+        obs = world.observe()
+        assert obs.grasped() is None and "toothpaste" not in obs.lying, obs.lying
     finally:
         env.close()

@@ -142,7 +142,8 @@ class GoalShift:
     Attributes:
         vector: (3,) m, world frame: the change of the goal of each moving arm.
         below: the ground the hand touched below itself when the goal was moved up for it
-            (:meth:`Executor._lift`), else None (the horizontal ``goalPos − collPos``).
+            (:meth:`Executor._lift`), else None (the horizontal ``goalPos − collPos``, or as much straight up
+            for a primitive that lets go).
     """
 
     vector: np.ndarray
@@ -539,22 +540,34 @@ class Executor(Approach):
         the object beside the target, not at its centre: its goalPos is the arm's goal, the place, so that a
         contact with the target moves the goal away from it (issue 31: with the box's centre, each contact
         with the box moved the goal 5 cm further into it, and the mug was pushed over against it).
+
+        A primitive that lets go (:attr:`~taskcond.primitives.Primitive.lets_go`) backs off straight up:
+        its goal goes up by as much as it would have moved sideways, since its open fingers still stand
+        round the object just let go, and a sideways goal drags them through it (issue 31: the toothpaste
+        set down in front of the microwave, knocked over by the release's way round the mug beside it).
         """
         lift = self._lift(touch, goal, aim)
         if lift is not None:
             return lift
+        sideways = self._sideways(touch, goal, aim, held)
+        if parse_task(aim.task).primitive.lets_go:
+            return GoalShift(np.array([0.0, 0.0, float(np.linalg.norm(sideways))]))
+        return GoalShift(sideways)
+
+    def _sideways(self, touch: Touch, goal: np.ndarray, aim: Aim, held: set[str]) -> np.ndarray:
+        """The horizontal goal change (3,) m of :meth:`_goal_shift`."""
         target = None if _beside(aim.task) else aim.target
         carried = sorted(held)
         if target is not None and aim.target_name in (touch.a, touch.b) and carried:
             centre = self.world.observe().centers.get(carried[0])
             if centre is not None:
                 here, _ = self.world.ee_pose()
-                return GoalShift(self._bounded(np.asarray(target, float) - (centre + goal[:3] - here)))
+                return self._bounded(np.asarray(target, float) - (centre + goal[:3] - here))
         if target is None:
             names = [n for n in (touch.a, touch.b) if n in self.world.arms]
             arm = self.world.arms.index(names[0]) if names else 0
             target = goal[3 * arm : 3 * arm + 3]
-        return GoalShift(self._bounded(np.asarray(target, float) - touch.position))
+        return self._bounded(np.asarray(target, float) - touch.position)
 
     def _lift(self, touch: Touch, goal: np.ndarray, aim: Aim) -> GoalShift | None:
         """Alg. 2 lines 11–12 for a contact below the hand: the hand of a moving arm touching the ground
