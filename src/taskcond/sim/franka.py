@@ -180,12 +180,14 @@ class Franka:
         measured :data:`IK_DAMPING` and :data:`IK_MAX_ITERATIONS`) started from ``seed`` (default the current
         joints), clipped to the joint limits, so always ``within_limits``. PyBullet's IK measures targets
         from the base's centre of mass, not its link frame, so the target is shifted by that offset. The
-        errors are measured with PyBullet's forward kinematics (:meth:`fk`) when first read. An answer that
-        misses the position by more than :data:`IK_RESEED` is solved again from :data:`HOME`, and that answer
-        kept if it comes within :data:`IK_RESEED` (a target at the edge of the reach, which neither reaches,
-        keeps the answer near the arm's joints, not a jump to another branch): clipped at a joint limit, an arm wound far from home (the wrist at its end after an open
-        of the bottom drawer) cannot unwind towards the target by small steps, and a grasp closed 36 cm from
-        its toothpaste. Never raises: the Panda has no reach check."""
+        errors are measured with PyBullet's forward kinematics (:meth:`fk`) when first read.
+
+        An answer that misses the position by more than :data:`IK_RESEED` is solved again from
+        :data:`HOME`, and that answer is kept where it comes within :data:`IK_RESEED`: clipped at a joint
+        limit, an arm wound far from home (the wrist at its end after an open of the bottom drawer) cannot
+        unwind towards the target by small steps, and a grasp closed 36 cm from its toothpaste. A target at
+        the edge of the reach, which neither reaches, keeps the answer near the arm's joints rather than a
+        jump to another branch. Never raises: the Panda has no reach check."""
         seed = self.joint_positions() if seed is None else np.asarray(seed, dtype=float)
         result = self._solve_from(position, orientation, seed, damping, max_iterations)
         if result.errors[0] <= IK_RESEED or np.array_equal(seed, HOME):
