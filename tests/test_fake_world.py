@@ -103,9 +103,6 @@ class TableTopWorld:
     def sweep(self, positions: np.ndarray, orientations: np.ndarray, ignore: tuple[str, ...]) -> float:
         return 0.05
 
-    def reaches(self, positions: np.ndarray, orientations: np.ndarray) -> bool:
-        return True
-
     def ee_pose(self, arms: int = 1) -> tuple[np.ndarray, np.ndarray]:
         return self.hand.copy(), DOWN.copy()
 

@@ -13,7 +13,7 @@ pytest.importorskip("pybullet")
 import pybullet as p
 
 from taskcond.sim.arm import Arm
-from taskcond.sim.franka import IK_DAMPING, IK_MAX_ITERATIONS, IK_RESEED, Franka, top_down
+from taskcond.sim.franka import Franka, top_down
 from taskcond.sim.kinova import KinovaArm
 
 pytestmark = pytest.mark.sim
@@ -53,15 +53,3 @@ def test_joint_targets_outside_the_limits_are_refused(arm: Arm) -> None:
     q[joint] = arm.upper[joint] + 0.1
     with pytest.raises(ValueError, match=r"outside the .* joint limits"):
         arm.set_joint_targets(q)
-
-
-def test_a_franka_wound_to_its_wrist_limit_solves_again_from_home(client: int) -> None:
-    """Issue 31: after an open of the bottom drawer the arm stood wound with its wrist at the limit. IK from
-    there, clipped at the limit, missed the toothpaste's pre-grasp pose by decimetres; from the home pose it
-    is exact, and :meth:`Franka.solve_ik` keeps that answer."""
-    franka = Franka(client)
-    wound = np.array([1.15, -1.83, -0.79, -2.4, -1.2, 0.8, -2.97])
-    target = franka.fk(np.array([-0.52, -0.62, -0.19, -2.56, -0.12, 1.95, 1.72]))
-    stuck = franka._solve_from(target.position, target.orientation, wound, IK_DAMPING, IK_MAX_ITERATIONS)
-    assert stuck.errors[0] > IK_RESEED
-    assert franka.solve_ik(target.position, target.orientation, wound).errors[0] < 1e-3

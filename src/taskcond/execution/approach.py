@@ -770,12 +770,10 @@ class Approach:
         demonstrations near such neighbours succeed) or at all (``far``: a skill demonstrated in another
         scene), or the arm itself would meet a neighbour on the way (:meth:`World.sweep`, more than
         :data:`SWEEP_TOLERANCE` into it). Then the reachable side that passes clear, then reaches least
-        into a box, then keeps the largest gap, wins (the demonstrated one on a tie); a side the arm cannot
-        take is none (:meth:`World.reaches`: turned half round the toothpaste, the Panda's wrist would pass
-        its limit, and the clipped arm closed its hand 36 cm from the toothpaste, then swept it over). A
-        hand housing against a neighbour cannot be repaired by Alg. 2's goal shifts, which move the fingers
-        off the wall they are to hold. A box round the whole target (:func:`_encloses`: a bin it stands in)
-        is no neighbour: every side's footprint lies in it; its walls are :meth:`World.sweep`'s."""
+        into a box, then keeps the largest gap, wins (the demonstrated one on a tie). A hand housing
+        against a neighbour cannot be repaired by Alg. 2's goal shifts, which move the fingers off the wall
+        they are to hold. A box round the whole target (:func:`_encloses`: a bin it stands in) is no
+        neighbour: every side's footprint lies in it; its walls are :meth:`World.sweep`'s."""
         skill, target_name, target, obs = g.skill, g.target_name, g.target, g.obs
         far, descent = g.far, g.descent
         arms = self.world.arms
@@ -846,9 +844,7 @@ class Approach:
             return 0.0
         for turn in (math.pi / 2, -math.pi / 2, math.pi):
             points, quats = way(turn)
-            reachable = all(self.world.reach_error(q) is None for q in points) and self.world.reaches(
-                points, quats
-            )
+            reachable = all(self.world.reach_error(q) is None for q in points)
             if reachable and (score := clearance(points, quats)) > best_clearance:
                 best, best_clearance = turn, score
         return best

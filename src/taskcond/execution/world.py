@@ -75,10 +75,6 @@ class Observation:
         return None
 
 
-REACHED = 0.02
-"""Distance (m) within which an end effector reaches a pose of :meth:`World.reaches`."""
-
-
 class World(Protocol):
     """One or more robot arms with parallel grippers in an observed environment.
 
@@ -139,13 +135,6 @@ class World(Protocol):
         (m, 3) with ``orientations`` (m, 4) xyzw; nothing moves."""
         ...
 
-    def reaches(self, positions: np.ndarray, orientations: np.ndarray) -> bool:
-        """Whether the first arm can take its end effector through ``positions`` (m, 3) with
-        ``orientations`` (m, 4) xyzw in turn from where it is, each within :data:`REACHED` of the
-        position: a pose it can reach only by turning a joint past its limit it misses (a grasp turned
-        half round its object needs the Panda's wrist beyond its range); nothing moves."""
-        ...
-
     def ee_pose(self, arms: int = 1) -> tuple[np.ndarray, np.ndarray]:
         """Positions (3k,) m and orientations (4k,) xyzw of the first ``arms`` end effectors, world
         frame."""
@@ -158,4 +147,4 @@ class World(Protocol):
         ...
 
 
-__all__ = ["REACHED", "Observation", "Touch", "World"]
+__all__ = ["Observation", "Touch", "World"]

@@ -45,9 +45,6 @@ PYBULLET_IK_DAMPING = (0.5,) * 9
 IK_MAX_ITERATIONS = 20
 """Iteration cap of :meth:`Franka.solve_ik`; most calls stop earlier at :data:`IK_RESIDUAL` (BENCHMARKS.md,
 "IK setting")."""
-IK_RESEED = 0.01
-"""m: an IK answer farther than this from the target is solved again from :data:`HOME`
-(:meth:`Franka.solve_ik`)."""
 IK_POSITION_TOLERANCE = 1e-3
 """m: an IK answer farther than this from the target is no ``success`` (the Kinova's tolerance)."""
 IK_ORIENTATION_TOLERANCE = 1e-2
@@ -180,30 +177,9 @@ class Franka:
         measured :data:`IK_DAMPING` and :data:`IK_MAX_ITERATIONS`) started from ``seed`` (default the current
         joints), clipped to the joint limits, so always ``within_limits``. PyBullet's IK measures targets
         from the base's centre of mass, not its link frame, so the target is shifted by that offset. The
-        errors are measured with PyBullet's forward kinematics (:meth:`fk`) when first read.
-
-        An answer that misses the position by more than :data:`IK_RESEED` is solved again from
-        :data:`HOME`, and that answer is kept where it comes within :data:`IK_RESEED`: clipped at a joint
-        limit, an arm wound far from home (the wrist at its end after an open of the bottom drawer) cannot
-        unwind towards the target by small steps, and a grasp closed 36 cm from its toothpaste. A target at
-        the edge of the reach, which neither reaches, keeps the answer near the arm's joints rather than a
-        jump to another branch. Never raises: the Panda has no reach check."""
+        errors are measured with PyBullet's forward kinematics (:meth:`fk`) when first read. Never raises:
+        the Panda has no reach check."""
         seed = self.joint_positions() if seed is None else np.asarray(seed, dtype=float)
-        result = self._solve_from(position, orientation, seed, damping, max_iterations)
-        if result.errors[0] <= IK_RESEED or np.array_equal(seed, HOME):
-            return result
-        fresh = self._solve_from(position, orientation, np.array(HOME), damping, max_iterations)
-        return fresh if fresh.errors[0] <= IK_RESEED else result
-
-    def _solve_from(
-        self,
-        position: ArrayLike,
-        orientation: ArrayLike | None,
-        seed: np.ndarray,
-        damping: tuple[float, ...],
-        max_iterations: int,
-    ) -> IKResult:
-        """:meth:`solve_ik` from ``seed`` (7,) rad only."""
         x, y, z = position  # type: ignore[misc]
         bx, by, bz = self._ik_bias
         turn = {} if orientation is None else {"targetOrientation": tuple(map(float, orientation))}  # type: ignore[arg-type]

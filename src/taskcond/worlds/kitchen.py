@@ -14,7 +14,7 @@ import pybullet as p
 
 from taskcond.conditions import KINOVA_GRIPPER, Relation, SpatialRelation
 from taskcond.envs.kitchen import KitchenEnv
-from taskcond.execution.world import REACHED, Observation, Touch
+from taskcond.execution.world import Observation, Touch
 from taskcond.primitives import get_primitive
 from taskcond.sim.assets import ROUND_CLASSES, shape_class
 from taskcond.sim.perception import EnvironmentInfo, Perception, PerceptionConfig
@@ -260,19 +260,6 @@ class KitchenWorld:
             seed = robot.solve_ik(position, orientation, seed).q
             qs.append(seed)
         return robot.clearance(qs, bodies, SWEEP_WITHIN)
-
-    def reaches(self, positions: np.ndarray, orientations: np.ndarray) -> bool:
-        """The Franka's IK for each pose in turn, each seeded by the last (the current joints first), as
-        :meth:`~taskcond.envs.kitchen.KitchenEnv.step` solves its commands; clipped to the joint limits,
-        an answer misses a pose the arm cannot take."""
-        robot = self.env.robot
-        seed = robot.joint_positions()
-        for position, orientation in zip(positions, orientations, strict=True):
-            result = robot.solve_ik(position, orientation, seed)
-            if result.errors[0] > REACHED:
-                return False
-            seed = result.q
-        return True
 
     def ee_pose(self, arms: int = 1) -> tuple[np.ndarray, np.ndarray]:
         ee = self.env.robot.ee_pose()

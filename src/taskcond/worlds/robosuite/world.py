@@ -170,11 +170,6 @@ class RobosuiteWorld:
             return f"{distance:.2f} m from the Panda's shoulder, beyond its reach of {REACH} m"
         return None
 
-    def reaches(self, positions: np.ndarray, orientations: np.ndarray) -> bool:
-        """Within :data:`REACH` of the shoulder: robosuite's operational-space controller drives the hand
-        in task space, with no joint solution to miss."""
-        return all(self.reach_error(q) is None for q in positions)
-
     def sweep(self, positions: np.ndarray, orientations: np.ndarray, ignore: tuple[str, ...]) -> float:
         """Least distance (m) between the hand's points (:data:`HAND_POINTS`) at each pose and the true
         boxes of everything but ``ignore`` and the ground, each of its collision geoms' own (a bin's walls
