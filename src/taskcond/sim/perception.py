@@ -248,6 +248,9 @@ class Perception:
         self._seen_lookup, self._shape_lookup = _SegmentationLookup.of(seen), _SegmentationLookup.of(shape)
         jointed = {c.name for c in scene.containers}
         self._vessels = [b.name for b in scene.bodies if b.kind == "container" and b.name not in jointed]
+        bases = {b.body_id: b.name for b in scene.bodies if b.link_index == -1}
+        self._soft = {body: bases[body] for body in scene.soft_bodies if body in bases}
+        """Soft body id → its name (the cloth), in :attr:`SceneDescription.soft_bodies` order."""
 
     # ----------------------------------------------------------------------------------------- public
     @property
@@ -289,11 +292,7 @@ class Perception:
                 cfg.thresholds,
                 cfg.front,
                 [g.name for g in self.scene.grippers],
-                [
-                    b.name
-                    for b in self.scene.bodies
-                    if b.body_id in self.scene.soft_bodies and b.link_index == -1
-                ],
+                self._soft.values(),
             )
         )
         predicates.update(self._gripper_states(points))
@@ -440,20 +439,16 @@ class Perception:
         :attr:`~taskcond.sim.cloth.ClothSpec.pinch_opening` (sum of the finger joint positions) with mesh
         nodes between the pads (:func:`~taskcond.sim.cloth.nodes_between_fingers`); the same rule that
         creates the simulator's grip anchors, read from the mesh since the pads do not touch the cloth."""
-        if not self.scene.soft_bodies:
+        if not self._soft:
             return None
         spec = ClothSpec()
         states = p.getJointStates(gripper.body_id, list(gripper.finger_links), physicsClientId=self._client)
         if sum(s[0] for s in states) > spec.pinch_opening:
             return None
         frame = finger_frame(self._client, gripper.body_id, gripper.finger_links, gripper.ee_link)
-        names = {b.body_id: b.name for b in self.scene.bodies if b.link_index == -1}
-        for body in self.scene.soft_bodies:
-            if (
-                body in names
-                and nodes_between_fingers(cloth_nodes(self._client, body), frame, spec.pad_margin).size
-            ):
-                return names[body]
+        for body, name in self._soft.items():
+            if nodes_between_fingers(cloth_nodes(self._client, body), frame, spec.pad_margin).size:
+                return name
         return None
 
     def _container_states(self) -> list[ContainerState]:
