@@ -737,17 +737,17 @@ class Approach:
         clearest, clearest_gap = zero, _gap(foot, standing, zero)
         if clearest_gap >= self.config.clearance:
             clearest_gap = math.inf
-        others = [*standing, *fixed]
         floor = min(_gap(foot, fixed, zero), self.config.clearance)
         for radius in np.arange(0.02, 0.201, 0.02):
             best, best_gap = None, self.config.clearance
             for shift in radius * np.column_stack([np.cos(ANGLES), np.sin(ANGLES)]):
-                g, free = _gap(foot, others, shift), _gap(foot, standing, shift)
+                free, kept = _gap(foot, standing, shift), _gap(foot, fixed, shift)
+                g = min(free, kept)  # from all the others
                 if (g < best_gap and free <= clearest_gap) or not fits(shift):
                     continue
                 if g >= best_gap:
                     best, best_gap = shift, g
-                elif free > clearest_gap and _gap(foot, fixed, shift) >= floor:
+                elif free > clearest_gap and kept >= floor:
                     clearest, clearest_gap = shift, free
             if best is not None:
                 return best
