@@ -103,6 +103,12 @@ class TableTopWorld:
     def sweep(self, positions: np.ndarray, orientations: np.ndarray, ignore: tuple[str, ...]) -> float:
         return 0.05
 
+    def wound(self, positions: np.ndarray, orientations: np.ndarray) -> bool:
+        return False
+
+    def unwind(self, gripper: float) -> str | None:
+        return None
+
     def ee_pose(self, arms: int = 1) -> tuple[np.ndarray, np.ndarray]:
         return self.hand.copy(), DOWN.copy()
 

@@ -203,11 +203,33 @@ class KitchenEnv(gym.Env):
                 self._q_target = target
             self.robot.set_joint_targets(self._q)
             command_gripper(self.robot, closed=gripper >= 0.5)
-            client = self.scene.client
-            for _ in range(self.substeps):
-                p.stepSimulation(client)
-            if self.scene.grips is not None:
-                self.scene.grips.update()
+            self._simulate()
+        return self._judge()
+
+    def step_joints(
+        self, q: np.ndarray, gripper: float
+    ) -> tuple[dict[str, np.ndarray], float, bool, bool, dict[str, Any]]:
+        """One control step of the Franka towards the arm joint positions ``q`` (7,) rad, with no IK: a
+        joint-space move (:meth:`taskcond.worlds.kitchen.KitchenWorld.unwind`); the gripper command as in
+        :meth:`step`, the Kinova holding its last command. The next end-effector action's IK starts from
+        ``q``. Returns what :meth:`step` returns."""
+        if self.failure is None:
+            self._q, self._q_target = np.array(q, dtype=float), None
+            self.robot.set_joint_targets(self._q)
+            command_gripper(self.robot, closed=gripper >= 0.5)
+            self._simulate()
+        return self._judge()
+
+    def _simulate(self) -> None:
+        """The physics of one control step under the commands set, and the cloth's grips after it."""
+        client = self.scene.client
+        for _ in range(self.substeps):
+            p.stepSimulation(client)
+        if self.scene.grips is not None:
+            self.scene.grips.update()
+
+    def _judge(self) -> tuple[dict[str, np.ndarray], float, bool, bool, dict[str, Any]]:
+        """The end of a control step: the state read once, the blow-up check, the task's success judge."""
         reading = self.reader.read()
         if self.failure is None:
             self.failure = self.monitor.check(reading)

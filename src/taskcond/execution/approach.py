@@ -457,7 +457,7 @@ class Approach:
         if way.approach is not None:
             start, quat = way.approach, start_orientation(first, here_q)
             head = self._transit_way(here, here_q, start, quat, way.over)
-        reach = (WAY_SAMPLES + 1) * _opened(g.skill)
+        reach = (WAY_SAMPLES + 1) * opened(g.skill)
         pieces = self._pieces_way(g, turn, start, quat, straight=False)
         gaps = {n: self._gaps(head, pieces, reach, (n,), g.obs) for n in standing}
         swept = tuple(
@@ -533,7 +533,7 @@ class Approach:
     ) -> tuple[float, float]:
         """Least distances (m) of the arm from the objects ``names`` along a transit ``head`` and the first
         ``reach`` points of a skill's ``pieces`` (:meth:`_pieces_way`; each positions (m, 3) and orientations
-        (m, 4) xyzw): the approach (:func:`_opened`); and along the rest, where the hand holds a handle or a
+        (m, 4) xyzw): the approach (:func:`opened`); and along the rest, where the hand holds a handle or a
         lid and follows its hinge rather than the plan (:data:`HELD_CLEARANCE`); 0.05 for none."""
         approach = np.concatenate([head[0], pieces[0][:reach]]), np.concatenate([head[1], pieces[1][:reach]])
         held = SWEEP_NONE
@@ -886,6 +886,9 @@ BACK_OFF_RELEASE = 10
 SET_DOWN_GAP = 0.01
 """Height (m) above its support at which a held object is let go when Alg. 1 frees the hand
 (:meth:`Approach._set_down`)."""
+UNWIND_LIFT = 0.10
+"""How far (m) the open hand rises before a wound arm moves back through its home joints
+(:meth:`Approach._unwind`)."""
 TRANSIT_SETTLE = 60
 """Most control steps a transit's last command is held for the hand to arrive."""
 TRANSIT_TOLERANCE = 0.01
@@ -1128,7 +1131,7 @@ def piece_goal(
     return np.asarray(start, float) + pitch.apply(goal - np.asarray(start, float))
 
 
-def _opened(skill: Skill) -> int:
+def opened(skill: Skill) -> int:
     """The number of the skill's first pieces with the gripper open: its approach, before the hand takes
     hold of anything."""
     return next((k for k, seg in enumerate(skill.segments) if seg.gripper >= 0.5), len(skill.segments))

@@ -40,6 +40,9 @@ class EventKind(StrEnum):
     """Alg. 1 raises a primitive for an unmet pre-condition."""
     BACK_OFF = "back_off"
     """The open hand rises before a grasp is tried again, or lets go of an object that slipped."""
+    UNWIND = "unwind"
+    """The empty hand rises and the arm, wound far from home, moves back through its home joints before a
+    primitive (``lift``, m)."""
     SET_DOWN = "set_down"
     """A held object is lowered onto its support before a release that Alg. 1 raised."""
     PRIMITIVE = "primitive"
@@ -156,6 +159,16 @@ class EventLog:
             depth,
             f"{task}: opening the hand and lifting it {height * 100:.0f} cm {why}",
             {"height": height},
+        )
+
+    def unwind(self, task: str, depth: int, lift: float) -> None:
+        self.emit(
+            EventKind.UNWIND,
+            task,
+            depth,
+            f"{task}: the arm is wound (its way misses where from home it reaches): lifting the hand "
+            f"{lift * 100:.0f} cm and moving it back through its home joints first",
+            {"lift": lift},
         )
 
     def set_down(self, task: str, depth: int, held: str, drop: float) -> None:

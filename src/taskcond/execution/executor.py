@@ -70,7 +70,16 @@ from taskcond.conditions import (
     is_gripper,
 )
 from taskcond.dmp import DMPRollout
-from taskcond.execution.approach import Aim, Approach, _conditioned, piece_goal, start_orientation, tilted
+from taskcond.execution.approach import (
+    UNWIND_LIFT,
+    Aim,
+    Approach,
+    _conditioned,
+    opened,
+    piece_goal,
+    start_orientation,
+    tilted,
+)
 from taskcond.execution.collisions import CollisionMonitor
 from taskcond.execution.config import PANDA_HAND, ExecutionConfig, Hand
 from taskcond.execution.events import Event, EventLog, fmt_items, fmt_vector
@@ -82,7 +91,7 @@ from taskcond.execution.skills import (
     SkillLibrary,
 )
 from taskcond.execution.world import Observation, Touch, World
-from taskcond.primitives import TaskNameError, parse_task, task_for_condition
+from taskcond.primitives import HandApproach, TaskNameError, parse_task, task_for_condition
 
 
 class SourceKind(StrEnum):
@@ -369,6 +378,9 @@ class Executor(Approach):
         :meth:`_aim`)."""
         obs = self.world.observe()
         aim = self._aim(task, obs, retry)
+        if self._unwind(task, depth, aim, obs, self._arrival(task, aim)):  # aimed again from home
+            obs = self.world.observe()
+            aim = self._aim(task, obs, retry)
         monitor = None if cond is None else CollisionMonitor.start(cond, obs, self.world.arms[: aim.arms])
         self.log.primitive(
             task,
@@ -387,15 +399,7 @@ class Executor(Approach):
             aim.tilt,
         )
         if aim.approach is not None:
-            first = aim.skill.segments[0]
-            here_q = self.world.ee_pose()[1]
-            if aim.hold:  # a round object carried: the hand keeps its heading
-                orientation = here_q
-            elif parse_task(task).primitive.grasps or aim.detour:  # turned as it will arrive at the goal
-                orientation = tilted(first.orientation(1.0, here_q, aim.turn), aim.tilt)
-            else:  # as the demonstration started: an open's hand turns to the handle on the way
-                orientation = start_orientation(first, here_q)
-            self._transit(aim.approach, orientation, first.gripper, aim.over)
+            self._transit(aim.approach, self._arrival(task, aim), aim.skill.segments[0].gripper, aim.over)
         adjustments, planned = 0, None
         track = None
         if self.config.track_target and aim.target_name is not None and aim.target is not None:
@@ -410,6 +414,71 @@ class Executor(Approach):
             adjustments, planned = adjustments + piece.adjustments, piece.goal
         for _ in range(self.config.settle_steps):
             self._step(*self._last)
+
+    def _unwind(self, task: str, depth: int, aim: Aim, obs: Observation, orientation: np.ndarray) -> bool:
+        """Beyond the paper: before a primitive that starts with an empty hand (a grasp, an open, a close),
+        an arm wound far from home (:meth:`World.wound`: the IK of its commands, seeded by the last answer,
+        misses the hand's way where answers from home reach it; after an open of the bottom drawer the
+        transit of a grasp turned half round the toothpaste left the Panda's wrist at its limit, the grasp's
+        approach turned it farther, and the hand closed 36 cm from the toothpaste) first lifts the hand
+        straight up by :data:`UNWIND_LIFT`, clear of what stands below it, then moves back through its home
+        joints (:meth:`World.unwind`, in joint space, one control step at a time). Never during a motion:
+        a carry would drop its object at a jump to another joint branch. The way checked is
+        :meth:`_way` (``orientation`` (4,) xyzw: the transit's, :meth:`_arrival`). Returns whether the
+        arm was unwound (the primitive is then aimed again from home).
+
+        Raises:
+            ExecutionError: the simulation failed on the way home.
+        """
+        primitive = parse_task(task).primitive
+        if primitive.approach is not HandApproach.EMPTY_HAND or aim.arms != 1 or obs.grasped() is not None:
+            return False
+        if not self.world.wound(*self._way(aim, orientation)):
+            return False
+        here, here_q = self.world.ee_pose()
+        gripper = aim.skill.segments[0].gripper
+        self.log.unwind(task, depth, UNWIND_LIFT)
+        self._straight(here + np.array([0.0, 0.0, UNWIND_LIFT]), here_q, gripper)
+        reason = self.world.unwind(gripper)
+        if reason is not None:
+            raise ExecutionError(f"simulation failed: {reason}", FailureKind.SIMULATION)
+        return True
+
+    def _way(self, aim: Aim, orientation: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The one-arm hand's commands of ``aim`` until its gripper closes, as :meth:`control` will give them
+        from where the hand is: the transit to ``aim.approach`` turned to ``orientation`` (4,) xyzw
+        (:meth:`_transit`), if any, then the skill's open-gripper pieces rolled out from their planned
+        starts (:meth:`_follow`, without Alg. 2's adjustments). Returns positions (m, 3) m and orientations
+        (m, 4) xyzw, one per control step."""
+        here, here_q = self.world.ee_pose()
+        points, quats = [np.asarray(here, float)[None, :]], [np.asarray(here_q, float)[None, :]]
+        start, start_q = points[0][0], quats[0][0]
+        if aim.approach is not None:
+            points.append(self._transit_path(here, aim.approach, aim.over))
+            quats.append(self._transit_orientations(here_q, orientation, len(points[-1])))
+            start, start_q = np.asarray(aim.approach, float), np.asarray(orientation, float)
+        dt = self.world.dt
+        for k, seg in enumerate(aim.skill.segments[: opened(aim.skill)]):
+            goal = piece_goal(aim.skill, k, start, aim.target, aim.turn, aim.scale, aim.tilt)
+            rollout = self._gen_dmp(seg, start, goal, aim.descent and k == 0, aim.detour and k == 0)
+            n = max(1, math.ceil(rollout.tau / dt - 1e-9))
+            points.append(np.array([rollout.step(dt)[0] for _ in range(n)]))
+            if aim.detour and k == 0:
+                quats.append(np.tile(start_q, (n, 1)))
+            else:
+                quats.append(seg.orientation(np.arange(1, n + 1) / n, start_q, aim.turn, aim.hold))
+            start, start_q = goal, quats[-1][-1]
+        return np.concatenate(points), np.concatenate(quats)
+
+    def _arrival(self, task: str, aim: Aim) -> np.ndarray:
+        """The orientation (4,) xyzw the hand turns to on ``aim``'s transit (:meth:`_transit`)."""
+        first = aim.skill.segments[0]
+        here_q = self.world.ee_pose()[1]
+        if aim.hold:  # a round object carried: the hand keeps its heading
+            return here_q
+        if parse_task(task).primitive.grasps or aim.detour:  # turned as it will arrive at the goal
+            return tilted(first.orientation(1.0, here_q, aim.turn), aim.tilt)
+        return start_orientation(first, here_q)  # as demonstrated: an open turns to the handle
 
     def _follow(
         self,

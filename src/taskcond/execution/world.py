@@ -75,6 +75,10 @@ class Observation:
         return None
 
 
+REACHED = 0.02
+"""Distance (m) within which an end effector reaches a pose of :meth:`World.wound`."""
+
+
 class World(Protocol):
     """One or more robot arms with parallel grippers in an observed environment.
 
@@ -135,6 +139,20 @@ class World(Protocol):
         (m, 3) with ``orientations`` (m, 4) xyzw; nothing moves."""
         ...
 
+    def wound(self, positions: np.ndarray, orientations: np.ndarray) -> bool:
+        """Whether the first arm, from its joints now, cannot take its end effector through ``positions``
+        (m, 3) with ``orientations`` (m, 4) xyzw in turn (each within :data:`REACHED`) where from its home
+        joints it can: an arm whose commands are solved by IK seeded by its last answer, wound far from home
+        (the Panda's wrist at its limit after an open of the bottom drawer), misses them by decimetres;
+        :meth:`unwind` mends it. Nothing moves. Always False for an arm driven in task space."""
+        ...
+
+    def unwind(self, gripper: float) -> str | None:
+        """Move the first arm back to its home joints, in joint space, one control step at a time (never a
+        jump), holding the ``gripper`` command; the others hold their last command. Returns a failure
+        reason (simulation blow-up) or None."""
+        ...
+
     def ee_pose(self, arms: int = 1) -> tuple[np.ndarray, np.ndarray]:
         """Positions (3k,) m and orientations (4k,) xyzw of the first ``arms`` end effectors, world
         frame."""
@@ -147,4 +165,4 @@ class World(Protocol):
         ...
 
 
-__all__ = ["Observation", "Touch", "World"]
+__all__ = ["REACHED", "Observation", "Touch", "World"]

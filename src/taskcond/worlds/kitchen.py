@@ -5,6 +5,7 @@ The executor core (:mod:`taskcond.execution`) knows the simulator only through t
 
 from __future__ import annotations
 
+import math
 import time
 from collections.abc import Callable
 from functools import cache
@@ -14,9 +15,10 @@ import pybullet as p
 
 from taskcond.conditions import KINOVA_GRIPPER, Relation, SpatialRelation
 from taskcond.envs.kitchen import KitchenEnv
-from taskcond.execution.world import Observation, Touch
+from taskcond.execution.world import REACHED, Observation, Touch
 from taskcond.primitives import get_primitive
 from taskcond.sim.assets import ROUND_CLASSES, shape_class
+from taskcond.sim.franka import HOME
 from taskcond.sim.perception import EnvironmentInfo, Perception, PerceptionConfig
 from taskcond.sim.recording import VideoRecorder
 from taskcond.sim.roles import SceneObject, fits_into, hand_enters, scene_roles
@@ -60,6 +62,15 @@ world perceives (:attr:`~taskcond.execution.world.Observation.yaws`, from the po
 world's elongated objects): a flat object (the spatula) is held across its length, so a grasp demonstrated
 at one heading is turned with it (issue 31: from random starts the spatula was grasped along or aslant its
 handle, pivoted in the fingers and fell out of them)."""
+
+WOUND_EVERY = 10
+"""Every how many poses of a way :meth:`KitchenWorld.wound` solves from home."""
+UNWIND_SPEED = 1.0
+"""rad/s: the fastest joint's speed on :meth:`KitchenWorld.unwind`'s joint-space way home."""
+UNWIND_SETTLE = 30
+"""Most control steps :meth:`KitchenWorld.unwind` holds the home joints for the arm to arrive."""
+UNWOUND = 0.02
+"""rad: the largest joint's distance from home at which :meth:`KitchenWorld.unwind`'s arm has arrived."""
 
 SWEEP_WITHIN = 0.05
 """Distance (m) up to which :meth:`KitchenWorld.sweep` measures the arm's clearance."""
@@ -261,6 +272,56 @@ class KitchenWorld:
             qs.append(seed)
         return robot.clearance(qs, bodies, SWEEP_WITHIN)
 
+    def wound(self, positions: np.ndarray, orientations: np.ndarray) -> bool:
+        """The Franka's IK for each pose in turn, each seeded by the last (the current joints first), as
+        :meth:`~taskcond.envs.kitchen.KitchenEnv.step` solves its commands, misses one by more than
+        :data:`REACHED` (clipped at a joint limit, an arm wound far from home cannot turn on towards its
+        target by small steps), where each pose from that one on, solved alone from
+        :data:`~taskcond.sim.franka.HOME` (every :data:`WOUND_EVERY`-th and the last), is reached: they
+        are not beyond the arm's reach. The joint-space way home (:meth:`unwind`) is not checked against
+        the scene. Nothing moves."""
+        robot = self.env.robot
+        first = self._first_missed(positions, orientations)
+        if first is None:
+            return False
+        home = np.array(HOME)
+        picked = [*range(first, len(positions), WOUND_EVERY), len(positions) - 1]
+        return all(robot.solve_ik(positions[k], orientations[k], home).errors[0] <= REACHED for k in picked)
+
+    def _first_missed(self, positions: np.ndarray, orientations: np.ndarray) -> int | None:
+        """The index of the first pose ((m, 3) m, (m, 4) xyzw) the Franka's IK, each answer seeding the
+        next from the current joints, misses by more than :data:`REACHED`, or None."""
+        robot = self.env.robot
+        seed = robot.joint_positions()
+        for k, (position, orientation) in enumerate(zip(positions, orientations, strict=True)):
+            result = robot.solve_ik(position, orientation, seed)
+            if result.errors[0] > REACHED:
+                return k
+            seed = result.q
+        return None
+
+    def unwind(self, gripper: float) -> str | None:
+        """The Franka's joints moved back to :data:`~taskcond.sim.franka.HOME` along the straight line in
+        joint space, its fastest joint at :data:`UNWIND_SPEED`, one control step at a time (no joint jumps),
+        then held there until every joint is within :data:`UNWOUND` of home (at most :data:`UNWIND_SETTLE`
+        steps), the gripper command ``gripper`` held; the next end-effector command's IK starts from home.
+        Returns a failure reason (a simulation blow-up) or None."""
+        env = self.env
+        start, home = env.robot.joint_positions(), np.array(HOME)
+        n = max(1, math.ceil(float(np.abs(home - start).max()) / (UNWIND_SPEED * self.dt)))
+        way = [start + (home - start) * (k / n) for k in range(1, n + 1)]
+        settle = [home] * UNWIND_SETTLE
+        for k, q in enumerate([*way, *settle]):
+            if k >= n and float(np.abs(env.robot.joint_positions() - home).max()) < UNWOUND:
+                break
+            begun = time.perf_counter()
+            outcome = env.step_joints(q, gripper)
+            self.env_seconds += time.perf_counter() - begun
+            reason = self._record(*outcome)
+            if reason is not None:
+                return reason
+        return None
+
     def ee_pose(self, arms: int = 1) -> tuple[np.ndarray, np.ndarray]:
         ee = self.env.robot.ee_pose()
         if arms < 2:
@@ -276,11 +337,18 @@ class KitchenWorld:
             self._kinova_command = np.concatenate([position[3:6], orientation[4:8], [gripper]])
         if self._kinova_command is not None:  # once moved, the Kinova holds its last command
             action = np.concatenate([action, self._kinova_command])
-        _, _, terminated, _, info = self.env.step(action)
+        outcome = self.env.step(action)
         self.env_seconds += time.perf_counter() - start
+        return self._record(*outcome)
+
+    def _record(
+        self, obs: object, reward: float, terminated: bool, truncated: bool, info: dict[str, object]
+    ) -> str | None:
+        """After a control step (the environment's step answer): its video frame, and the failure reason
+        it ended the episode with, if any."""
         if self.recorder is not None and self.env.steps % VIDEO_EVERY == 0:
             self.recorder.add(self.env.render())
-        return info["failure"] if terminated else None
+        return str(info["failure"]) if terminated else None
 
 
 def scene_objects(

@@ -170,6 +170,15 @@ class RobosuiteWorld:
             return f"{distance:.2f} m from the Panda's shoulder, beyond its reach of {REACH} m"
         return None
 
+    def wound(self, positions: np.ndarray, orientations: np.ndarray) -> bool:
+        """Never: robosuite's operational-space controller drives the hand in task space, with no IK answer
+        seeded by the last to wind up."""
+        return False
+
+    def unwind(self, gripper: float) -> str | None:
+        """Nothing to do (:meth:`wound` is never true)."""
+        return None
+
     def sweep(self, positions: np.ndarray, orientations: np.ndarray, ignore: tuple[str, ...]) -> float:
         """Least distance (m) between the hand's points (:data:`HAND_POINTS`) at each pose and the true
         boxes of everything but ``ignore`` and the ground, each of its collision geoms' own (a bin's walls
