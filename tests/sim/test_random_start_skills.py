@@ -463,3 +463,28 @@ def test_a_release_touching_a_neighbour_backs_off_straight_up_and_leaves_its_obj
         assert obs.grasped() is None and "toothpaste" not in obs.lying, obs.lying
     finally:
         env.close()
+
+
+def test_a_grasp_after_an_open_of_the_bottom_drawer_unwinds_the_arm_and_leaves_the_toothpaste_standing() -> (
+    None
+):
+    """Issue 31: from this random start (seed 1001) the open of the bottom drawer leaves the arm turned to
+    the drawer; the grasp of the toothpaste, turned half round it, would wind the Panda's wrist to its limit
+    on the transit, and its approach would then miss by 0.4 m: the hand closed beside the toothpaste and
+    swept it over. The executor finds the way missed from the wound joints (World.wound), lifts the hand,
+    moves the arm back through its home joints (the trace's ``unwind``) and grasps the toothpaste at the
+    first try. Without the unwind the three tries miss."""
+    library = learn_library(None, ["open-bottom_drawer", "grasp-toothpaste"])
+    env = KitchenEnv(FreeTask("x", ("open bottom drawer", "grasp toothpaste"), start="random"))
+    env.reset(seed=1001)
+    try:
+        world = KitchenWorld(env, noise_sigma=0.005, seed=1001)
+        executor = Executor(world, library, method="env", source=EnvConditions(library))
+        result = executor.run(["open bottom drawer", "grasp toothpaste"])
+        obs = world.observe()
+        assert result.completed and obs.holds(ContainerState("bottom drawer", True))
+        assert obs.grasped() == "toothpaste" and "toothpaste" not in obs.lying
+        kinds = [(e.kind, e.task) for e in result.events if e.kind in ("unwind", "post_missing")]
+        assert kinds == [("unwind", "grasp toothpaste")]
+    finally:
+        env.close()
