@@ -206,5 +206,16 @@ class ObservedWorld:
         )
         return reason
 
+    def unwind(self, gripper: float) -> str | None:
+        """The world's unwind (:meth:`KitchenWorld.unwind`), each control step told with the hand's pose
+        after it as the command."""
+
+        def stepped() -> None:
+            position, orientation = self.world.ee_pose()
+            env = self.world.env
+            self.observers.stepped(ControlStep(env.steps, self.world.time, position, orientation, gripper))
+
+        return self.world.unwind(gripper, stepped)
+
 
 __all__ = ["ControlStep", "EpisodeInfo", "EpisodeObserver", "ObservedWorld", "Observers"]

@@ -300,12 +300,13 @@ class KitchenWorld:
             seed = result.q
         return None
 
-    def unwind(self, gripper: float) -> str | None:
+    def unwind(self, gripper: float, stepped: Callable[[], None] | None = None) -> str | None:
         """The Franka's joints moved back to :data:`~taskcond.sim.franka.HOME` along the straight line in
         joint space, its fastest joint at :data:`UNWIND_SPEED`, one control step at a time (no joint jumps),
         then held there until every joint is within :data:`UNWOUND` of home (at most :data:`UNWIND_SETTLE`
         steps), the gripper command ``gripper`` held; the next end-effector command's IK starts from home.
-        Returns a failure reason (a simulation blow-up) or None."""
+        ``stepped`` is called after each control step (an episode's observers). Returns a failure reason
+        (a simulation blow-up) or None."""
         env = self.env
         start, home = env.robot.joint_positions(), np.array(HOME)
         n = max(1, math.ceil(float(np.abs(home - start).max()) / (UNWIND_SPEED * self.dt)))
@@ -318,6 +319,8 @@ class KitchenWorld:
             outcome = env.step_joints(q, gripper)
             self.env_seconds += time.perf_counter() - begun
             reason = self._record(*outcome)
+            if stepped is not None:
+                stepped()
             if reason is not None:
                 return reason
         return None
