@@ -430,7 +430,11 @@ class Executor(Approach):
         to ``planned`` ((3k,) m), the previous piece's goal as Alg. 2 left it, not to the measured hand
         (issue 31): a hand held back by something (under a drawer) would otherwise carry the whole skill
         along with it (LHT2 seed 1001: the next piece's goal 0.45 m from the bowl, below the table).
-        Without ``planned`` (the first piece) it is added to the hand. With ``track``
+        Without ``planned`` (the first piece), and when a hand touches the primitive's target as the piece
+        starts (:meth:`_holds_target`: it takes hold of it where it is), it is added to the hand: a goal
+        Alg. 2 moved into the target (a drawer's handle approached past its closed front) is one the hand
+        never reached, and a pull counted from it pulls the drawer that much less far (issue 31: the bottom
+        drawer opened 15 cm of 22, and the carry into it ran into the top drawer's front). With ``track``
         (:attr:`ExecutionConfig.track_target`), a piece anchored on the target moves its goal with the
         mean of the target's perceived centres after every step.
 
@@ -438,7 +442,8 @@ class Executor(Approach):
             ExecutionError: the piece's goal is out of reach, or the simulation fails.
         """
         start, start_q = self.world.ee_pose(aim.arms)
-        goal = self._piece_goal(seg, aim, start if planned is None else planned)
+        held = planned is None or (seg.anchor == "relative" and self._holds_target(aim))
+        goal = self._piece_goal(seg, aim, start if held else planned)
         first = seg is aim.skill.segments[0]
         rollout = self._gen_dmp(seg, start, goal, aim.descent and first, aim.detour and first)
         self._tell(rollout, goal, monitor, seg.gripper >= 0.5)
@@ -466,6 +471,13 @@ class Executor(Approach):
             for _ in range(max(1, back // 3)):
                 self._step(back_to, orientations[k], seg.gripper)
         return Piece(made, np.array(rollout.goal, float))
+
+    def _holds_target(self, aim: Aim) -> bool:
+        """Whether a hand of ``aim``'s arms touches its target now (:meth:`_follow`)."""
+        hands = self.world.arms[: aim.arms]
+        return aim.target_name is not None and any(
+            {t.a, t.b} & set(hands) and aim.target_name in (t.a, t.b) for t in self.world.touches()
+        )
 
     def _piece_goal(self, seg: Segment, aim: Aim, base: np.ndarray) -> np.ndarray:
         """The goal ((3k,) m) of ``aim``'s piece ``seg`` (:func:`piece_goal`; a relative piece's from
