@@ -289,7 +289,9 @@ class Executor(Approach):
                 return
             if attempt > 0 and primitive.grasps:
                 self._back_off(task, depth, "before trying again")
-            self.satisfy(_part_way(cond, obs), (*stack, task), depth, deadline)
+            self.satisfy(
+                _part_way(self._uncovered(cond, task, depth, obs), obs), (*stack, task), depth, deadline
+            )
             if primitive.lets_go:
                 self._set_down(task, depth)
             self.control(task, cond, depth, deadline, retry=attempt > 0)
@@ -301,6 +303,28 @@ class Executor(Approach):
                 break
             self.log.retry(task, depth, missing, attempt + 1)
         self.log.gave_up(task, depth, missing, attempt + 1)
+
+    def _uncovered(self, cond: TaskCondition, task: str, depth: int, obs: Observation) -> TaskCondition:
+        """``cond`` of a move into a container (:attr:`~taskcond.primitives.Primitive.places` ``inside``)
+        with ``C closed`` added to its pre-conditions for each other container C that is open in ``obs``
+        and hangs over the target's opening (:func:`_covering`), so that Alg. 1 closes it first (issue 31:
+        the top drawer, open over the open bottom drawer, took the object carried into the bottom drawer
+        against its front, or its underside); ``cond`` itself for every other primitive. Derived from the
+        perceived boxes, not from the condition source: a generated condition names the container the
+        object goes into, not the one above it."""
+        parsed = parse_task(task)
+        if parsed.primitive.places is not Relation.INSIDE:
+            return cond
+        container = parsed.objects[-1]
+        covering = tuple(
+            ContainerState(c, False)
+            for c in _covering(container, obs)
+            if ContainerState(c, False) not in cond.pre_conditions
+        )
+        if not covering:
+            return cond
+        self.log.covered(task, depth, container, covering)
+        return dataclasses.replace(cond, pre_conditions=(*cond.pre_conditions, *covering))
 
     def satisfy(self, cond: TaskCondition, stack: tuple[str, ...], depth: int, deadline: float) -> None:
         """Alg. 1 (SatisfyPreCond): compare the pre-conditions of ``cond`` with the environment information
@@ -670,6 +694,28 @@ def _done_already(task: str, cond: TaskCondition, obs: Observation) -> bool:
     post-conditions all hold in ``obs``."""
     idempotent = parse_task(task).primitive.idempotent
     return bool(idempotent and cond.post_conditions and not _missing(cond.post_conditions, obs))
+
+
+COVER_OVERLAP = 0.02
+"""Least overlap (m) along x and along y of the perceived boxes of an open container and of the container
+a move puts its object into by which the first hangs over the second's opening (:func:`_covering`)."""
+
+
+def _covering(container: str, obs: Observation) -> list[str]:
+    """The containers open in ``obs`` but ``container`` whose perceived box hangs over ``container``'s:
+    its bottom no lower than ``container``'s top less :data:`COVER_OVERLAP`, their footprints overlapping by
+    at least that both ways (a drawer pulled out over the drawer below it)."""
+    if container not in obs.boxes:
+        return []
+    lo, hi = obs.boxes[container]
+    return [
+        name
+        for name, (olo, ohi) in obs.boxes.items()
+        if name != container
+        and obs.holds(ContainerState(name, True))
+        and float(olo[2]) >= float(hi[2]) - COVER_OVERLAP
+        and bool(np.all(np.minimum(hi[:2], ohi[:2]) - np.maximum(lo[:2], olo[:2]) >= COVER_OVERLAP))
+    ]
 
 
 def _beside(task: str) -> bool:
