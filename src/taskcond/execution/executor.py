@@ -82,7 +82,7 @@ from taskcond.execution.skills import (
     SkillLibrary,
 )
 from taskcond.execution.world import Observation, Touch, World
-from taskcond.primitives import TaskNameError, parse_task, task_for_condition
+from taskcond.primitives import HandApproach, TaskNameError, parse_task, task_for_condition
 
 
 class SourceKind(StrEnum):
@@ -454,11 +454,12 @@ class Executor(Approach):
         to ``planned`` ((3k,) m), the previous piece's goal as Alg. 2 left it, not to the measured hand
         (issue 31): a hand held back by something (under a drawer) would otherwise carry the whole skill
         along with it (LHT2 seed 1001: the next piece's goal 0.45 m from the bowl, below the table).
-        Without ``planned`` (the first piece), and when a hand touches the primitive's target as the piece
-        starts (:meth:`_holds_target`: it takes hold of it where it is), it is added to the hand: a goal
-        Alg. 2 moved into the target (a drawer's handle approached past its closed front) is one the hand
-        never reached, and a pull counted from it pulls the drawer that much less far (issue 31: the bottom
-        drawer opened 15 cm of 22, and the carry into it ran into the top drawer's front). With ``track``
+        Without ``planned`` (the first piece), and when the hand of an open or a close touches its target
+        as the piece starts (:meth:`_holds_target`: it takes hold of it where it is), it is added to the
+        hand: a goal Alg. 2 moved into the target (a drawer's handle approached past its closed front) is
+        one the hand never reached, and a pull counted from it pulls the drawer that much less far (issue
+        31: the bottom drawer opened 15 cm of 22, and the carry into it ran into the top drawer's front,
+        start seed 1002 of the combination benchmark). With ``track``
         (:attr:`ExecutionConfig.track_target`), a piece anchored on the target moves its goal with the
         mean of the target's perceived centres after every step.
 
@@ -497,11 +498,13 @@ class Executor(Approach):
         return Piece(made, np.array(rollout.goal, float))
 
     def _holds_target(self, aim: Aim) -> bool:
-        """Whether a hand of ``aim``'s arms touches its target now (:meth:`_follow`)."""
-        hands = self.world.arms[: aim.arms]
-        return aim.target_name is not None and any(
-            {t.a, t.b} & set(hands) and aim.target_name in (t.a, t.b) for t in self.world.touches()
-        )
+        """Whether ``aim`` is an empty-hand primitive that grasps nothing (an open, a close: its target is
+        fixed) and a hand of its arms touches the target now (:meth:`_follow`)."""
+        primitive = parse_task(aim.task).primitive
+        if primitive.approach is not HandApproach.EMPTY_HAND or primitive.grasps or aim.target_name is None:
+            return False
+        hands = set(self.world.arms[: aim.arms])
+        return any(hands & {t.a, t.b} and aim.target_name in (t.a, t.b) for t in self.world.touches())
 
     def _piece_goal(self, seg: Segment, aim: Aim, base: np.ndarray) -> np.ndarray:
         """The goal ((3k,) m) of ``aim``'s piece ``seg`` (:func:`piece_goal`; a relative piece's from
