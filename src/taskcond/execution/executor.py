@@ -454,12 +454,8 @@ class Executor(Approach):
         to ``planned`` ((3k,) m), the previous piece's goal as Alg. 2 left it, not to the measured hand
         (issue 31): a hand held back by something (under a drawer) would otherwise carry the whole skill
         along with it (LHT2 seed 1001: the next piece's goal 0.45 m from the bowl, below the table).
-        Without ``planned`` (the first piece), and when the hand of an open or a close touches its target
-        as the piece starts (:meth:`_holds_target`: it takes hold of it where it is), it is added to the
-        hand: a goal Alg. 2 moved into the target (a drawer's handle approached past its closed front) is
-        one the hand never reached, and a pull counted from it pulls the drawer that much less far (issue
-        31: the bottom drawer opened 15 cm of 22, and the carry into it ran into the top drawer's front,
-        start seed 1002 of the combination benchmark). With ``track``
+        Without ``planned`` (the first piece), and when an open's or a close's hand takes hold of its
+        target (:meth:`_holds_target`), it is added to the hand. With ``track``
         (:attr:`ExecutionConfig.track_target`), a piece anchored on the target moves its goal with the
         mean of the target's perceived centres after every step.
 
@@ -499,7 +495,11 @@ class Executor(Approach):
 
     def _holds_target(self, aim: Aim) -> bool:
         """Whether ``aim`` is an empty-hand primitive that grasps nothing (an open, a close: its target is
-        fixed) and a hand of its arms touches the target now (:meth:`_follow`)."""
+        fixed) and a hand of its arms touches the target now: it takes hold of it where it is, and
+        :meth:`_follow` counts the next relative piece from the hand. A goal Alg. 2 moved into the target (a
+        drawer's handle approached past its closed front) is one the hand never reached, and a pull counted
+        from it pulls the drawer that much less far (issue 31, start seed 1002 of the combination benchmark:
+        the bottom drawer opened 15 cm of 22, and the carry into it ran into the top drawer's front)."""
         primitive = parse_task(aim.task).primitive
         if primitive.approach is not HandApproach.EMPTY_HAND or primitive.grasps or aim.target_name is None:
             return False
