@@ -432,6 +432,8 @@ class Executor(Approach):
             left = self.config.max_adjustments - adjustments
             piece = self._follow(seg, aim, monitor, depth, left, planned, track)
             adjustments, planned = adjustments + piece.adjustments, piece.goal
+            if piece.adjustments and self._holds_target(aim):
+                planned = None  # it took hold short of a goal Alg. 2 moved: the next piece counts from it
         for _ in range(self.config.settle_steps):
             self._step(*self._last)
 
@@ -454,8 +456,8 @@ class Executor(Approach):
         to ``planned`` ((3k,) m), the previous piece's goal as Alg. 2 left it, not to the measured hand
         (issue 31): a hand held back by something (under a drawer) would otherwise carry the whole skill
         along with it (LHT2 seed 1001: the next piece's goal 0.45 m from the bowl, below the table).
-        Without ``planned`` (the first piece), and when an open's or a close's hand takes hold of its
-        target (:meth:`_holds_target`), it is added to the hand. With ``track``
+        Without ``planned`` (the first piece, or a piece after one whose goal Alg. 2 moved while the hand
+        took hold of its target: :meth:`_holds_target`) it is added to the hand. With ``track``
         (:attr:`ExecutionConfig.track_target`), a piece anchored on the target moves its goal with the
         mean of the target's perceived centres after every step.
 
@@ -463,8 +465,7 @@ class Executor(Approach):
             ExecutionError: the piece's goal is out of reach, or the simulation fails.
         """
         start, start_q = self.world.ee_pose(aim.arms)
-        held = planned is None or (seg.anchor == "relative" and self._holds_target(aim))
-        goal = self._piece_goal(seg, aim, start if held else planned)
+        goal = self._piece_goal(seg, aim, start if planned is None else planned)
         first = seg is aim.skill.segments[0]
         rollout = self._gen_dmp(seg, start, goal, aim.descent and first, aim.detour and first)
         self._tell(rollout, goal, monitor, seg.gripper >= 0.5)
@@ -495,11 +496,12 @@ class Executor(Approach):
 
     def _holds_target(self, aim: Aim) -> bool:
         """Whether ``aim`` is an empty-hand primitive that grasps nothing (an open, a close: its target is
-        fixed) and a hand of its arms touches the target now: it takes hold of it where it is, and
-        :meth:`_follow` counts the next relative piece from the hand. A goal Alg. 2 moved into the target (a
-        drawer's handle approached past its closed front) is one the hand never reached, and a pull counted
-        from it pulls the drawer that much less far (issue 31, start seed 1002 of the combination benchmark:
-        the bottom drawer opened 15 cm of 22, and the carry into it ran into the top drawer's front)."""
+        fixed) and a hand of its arms touches the target now: it takes hold of it where it is. After a piece
+        whose goal Alg. 2 moved, :meth:`control` then counts the next piece from the hand: a goal moved into
+        the target (a drawer's handle approached past its closed front) is one the hand never reached, and a
+        pull counted from it pulls the drawer that much less far (issue 31, start seed 1002 of the
+        combination benchmark: the bottom drawer opened 15 cm of 22, and the carry into it ran into the top
+        drawer's front)."""
         primitive = parse_task(aim.task).primitive
         if primitive.approach is not HandApproach.EMPTY_HAND or primitive.grasps or aim.target_name is None:
             return False
