@@ -38,6 +38,9 @@ class EventKind(StrEnum):
     """An idempotent primitive's post-conditions already hold: skipped."""
     RAISE = "raise"
     """Alg. 1 raises a primitive for an unmet pre-condition."""
+    COVERED = "covered"
+    """Open containers hang over the container a move puts its object into: their being closed is added to
+    the move's pre-conditions (``covering``)."""
     BACK_OFF = "back_off"
     """The open hand rises before a grasp is tried again, or lets go of an object that slipped."""
     UNWIND = "unwind"
@@ -150,6 +153,15 @@ class EventLog:
             depth,
             f"pre-condition '{pre}' of {for_task!r} unmet: raising {task!r}",
             {"pre_condition": str(pre), "for": for_task},
+        )
+
+    def covered(self, task: str, depth: int, container: str, covering: Sequence[Predicate]) -> None:
+        self.emit(
+            EventKind.COVERED,
+            task,
+            depth,
+            f"{task}: open above {container}'s opening, so also needs {fmt_items(covering)}",
+            {"covering": [str(p) for p in covering]},
         )
 
     def back_off(self, task: str, depth: int, height: float, why: str) -> None:

@@ -298,7 +298,9 @@ class Executor(Approach):
                 return
             if attempt > 0 and primitive.grasps:
                 self._back_off(task, depth, "before trying again")
-            self.satisfy(_part_way(cond, obs), (*stack, task), depth, deadline)
+            self.satisfy(
+                _part_way(self._uncovered(cond, task, depth, obs), obs), (*stack, task), depth, deadline
+            )
             if primitive.lets_go:
                 self._set_down(task, depth)
             self.control(task, cond, depth, deadline, retry=attempt > 0)
@@ -310,6 +312,28 @@ class Executor(Approach):
                 break
             self.log.retry(task, depth, missing, attempt + 1)
         self.log.gave_up(task, depth, missing, attempt + 1)
+
+    def _uncovered(self, cond: TaskCondition, task: str, depth: int, obs: Observation) -> TaskCondition:
+        """``cond`` of a move into a container (:attr:`~taskcond.primitives.Primitive.places` ``inside``)
+        with ``C closed`` added to its pre-conditions for each other container C that is open in ``obs``
+        and hangs over the target's opening (:func:`_covering`), so that Alg. 1 closes it first (issue 31:
+        the top drawer, open over the open bottom drawer, took the object carried into the bottom drawer
+        against its front, or its underside); ``cond`` itself for every other primitive. Derived from the
+        perceived boxes, not from the condition source: a generated condition names the container the
+        object goes into, not the one above it."""
+        parsed = parse_task(task)
+        if parsed.primitive.places is not Relation.INSIDE:
+            return cond
+        container = parsed.objects[-1]
+        covering = tuple(
+            ContainerState(c, False)
+            for c in _covering(container, obs)
+            if ContainerState(c, False) not in cond.pre_conditions
+        )
+        if not covering:
+            return cond
+        self.log.covered(task, depth, container, covering)
+        return dataclasses.replace(cond, pre_conditions=(*cond.pre_conditions, *covering))
 
     def satisfy(self, cond: TaskCondition, stack: tuple[str, ...], depth: int, deadline: float) -> None:
         """Alg. 1 (SatisfyPreCond): compare the pre-conditions of ``cond`` with the environment information
@@ -412,6 +436,8 @@ class Executor(Approach):
             left = self.config.max_adjustments - adjustments
             piece = self._follow(seg, aim, monitor, depth, left, planned, track)
             adjustments, planned = adjustments + piece.adjustments, piece.goal
+            if piece.adjustments and self._holds_target(aim):
+                planned = None  # it took hold short of a goal Alg. 2 moved: the next piece counts from it
         for _ in range(self.config.settle_steps):
             self._step(*self._last)
 
@@ -499,7 +525,8 @@ class Executor(Approach):
         to ``planned`` ((3k,) m), the previous piece's goal as Alg. 2 left it, not to the measured hand
         (issue 31): a hand held back by something (under a drawer) would otherwise carry the whole skill
         along with it (LHT2 seed 1001: the next piece's goal 0.45 m from the bowl, below the table).
-        Without ``planned`` (the first piece) it is added to the hand. With ``track``
+        Without ``planned`` (the first piece, or a piece after one whose goal Alg. 2 moved while the hand
+        took hold of its target: :meth:`_holds_target`) it is added to the hand. With ``track``
         (:attr:`ExecutionConfig.track_target`), a piece anchored on the target moves its goal with the
         mean of the target's perceived centres after every step.
 
@@ -535,6 +562,20 @@ class Executor(Approach):
             for _ in range(max(1, back // 3)):
                 self._step(back_to, orientations[k], seg.gripper)
         return Piece(made, np.array(rollout.goal, float))
+
+    def _holds_target(self, aim: Aim) -> bool:
+        """Whether ``aim`` is an empty-hand primitive that grasps nothing (an open, a close: its target is
+        fixed) and a hand of its arms touches the target now: it takes hold of it where it is. After a piece
+        whose goal Alg. 2 moved, :meth:`control` then counts the next piece from the hand: a goal moved into
+        the target (a drawer's handle approached past its closed front) is one the hand never reached, and a
+        pull counted from it pulls the drawer that much less far (issue 31, start seed 1002 of the
+        combination benchmark: the bottom drawer opened 15 cm of 22, and the carry into it ran into the top
+        drawer's front)."""
+        primitive = parse_task(aim.task).primitive
+        if primitive.approach is not HandApproach.EMPTY_HAND or primitive.grasps or aim.target_name is None:
+            return False
+        hands = set(self.world.arms[: aim.arms])
+        return any(hands & {t.a, t.b} and aim.target_name in (t.a, t.b) for t in self.world.touches())
 
     def _piece_goal(self, seg: Segment, aim: Aim, base: np.ndarray) -> np.ndarray:
         """The goal ((3k,) m) of ``aim``'s piece ``seg`` (:func:`piece_goal`; a relative piece's from
@@ -727,6 +768,28 @@ def _done_already(task: str, cond: TaskCondition, obs: Observation) -> bool:
     post-conditions all hold in ``obs``."""
     idempotent = parse_task(task).primitive.idempotent
     return bool(idempotent and cond.post_conditions and not _missing(cond.post_conditions, obs))
+
+
+COVER_OVERLAP = 0.02
+"""Least overlap (m) along x and along y of the perceived boxes of an open container and of the container
+a move puts its object into by which the first hangs over the second's opening (:func:`_covering`)."""
+
+
+def _covering(container: str, obs: Observation) -> list[str]:
+    """The containers open in ``obs`` but ``container`` whose perceived box hangs over ``container``'s:
+    its bottom no lower than ``container``'s top less :data:`COVER_OVERLAP`, their footprints overlapping by
+    at least that both ways (a drawer pulled out over the drawer below it)."""
+    if container not in obs.boxes:
+        return []
+    lo, hi = obs.boxes[container]
+    return [
+        name
+        for name, (olo, ohi) in obs.boxes.items()
+        if name != container
+        and obs.holds(ContainerState(name, True))
+        and float(olo[2]) >= float(hi[2]) - COVER_OVERLAP
+        and bool(np.all(np.minimum(hi[:2], ohi[:2]) - np.maximum(lo[:2], olo[:2]) >= COVER_OVERLAP))
+    ]
 
 
 def _beside(task: str) -> bool:
