@@ -6,15 +6,13 @@ paths that need a specific bad answer, a scripted replay backend standing in for
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
-
 import pytest
 
-from doubles import Spoiled
+from doubles import Replay, Spoiled
 from taskcond.conditions import ConditionError, TaskCondition
 from taskcond.examples import reference_condition
 from taskcond.generator import ConditionGenerator, answer_grammar, examples_block, parse_answer
-from taskcond.llm.base import ChatMessage, ChatRequest, ChatResponse, LLMError, Sampling
+from taskcond.llm.base import ChatMessage, ChatRequest, LLMError, Sampling
 from taskcond.llm.cache import CachedBackend
 from taskcond.llm.embedded import PREFIX_CACHE_BYTES, EmbeddedBackend
 from taskcond.primitives import PRIMITIVES, parse_task
@@ -35,20 +33,6 @@ Post-conditions:
   gripper grasping A
   B open
 """
-
-
-@dataclass
-class Replay:
-    """A backend that answers from a script, recording what it was asked (for the validator's paths)."""
-
-    answers: list[str]
-    name: str = "replay"
-    model: str = "script"
-    requests: list[ChatRequest] = field(default_factory=list)
-
-    def chat(self, request: ChatRequest) -> ChatResponse:
-        self.requests.append(request)
-        return ChatResponse(self.answers.pop(0))
 
 
 def test_prompt_has_the_four_parts_and_letters_only():
