@@ -94,9 +94,9 @@ def test_v6_asks_a_left_out_primitive_in_one_code_chat_and_generation_as_v5():
         assert load_prompt("retry", "v6").template == load_prompt("retry", "v5").template
 
 
-def test_v7_the_default_differs_from_v6_in_the_code_chats_system_message_only():
-    v7, v6 = ConditionGenerator(Replay([])), ConditionGenerator(Replay([]), prompt_version="v6")
-    assert PROMPT_VERSION == "v7" and uses_code_form("v7")
+def test_v7_differs_from_v6_in_the_code_chats_system_message_only():
+    v7, v6 = (ConditionGenerator(Replay([]), prompt_version=v) for v in ("v7", "v6"))
+    assert uses_code_form("v7")
     seven = v7.messages("code", TASK, exclude=["move_into"], order_seed=1)
     six = v6.messages("code", TASK, exclude=["move_into"], order_seed=1)
     assert seven[1:] == six[1:] and seven[0] != six[0]
@@ -106,9 +106,9 @@ def test_v7_the_default_differs_from_v6_in_the_code_chats_system_message_only():
     assert load_prompt("code_retry", "v7").template == load_prompt("code_retry", "v6").template
 
 
-def test_v8_asks_a_generated_condition_in_one_code_chat_with_its_own_example_repeated_last():
-    v8, v7 = ConditionGenerator(Replay([GOOD]), prompt_version="v8"), ConditionGenerator(Replay([]))
-    assert code_only("v8") and not code_only("v7")
+def test_v8_the_default_asks_a_generated_condition_in_one_code_chat_with_its_own_example_repeated_last():
+    v8, v7 = ConditionGenerator(Replay([GOOD])), ConditionGenerator(Replay([]), prompt_version="v7")
+    assert PROMPT_VERSION == "v8" and code_only("v8") and not code_only("v7")
     result = v8.generate(TASK)
     assert result.mode == "generation" and [t.chat for t in result.transcripts] == ["code"]
     assert result.condition.matches(reference_condition(TASK))
@@ -182,11 +182,11 @@ def test_probe_scores_yes_no_answers_against_the_example_conditions():
 
 @pytest.mark.llm
 def test_embedded_code_answer_of_a_left_out_primitive_parses_and_validates(embedded_backend):
-    """The default prompts (v7) ask a left-out primitive in the code form, and the answer is right: every
+    """The default prompts (v8) ask a left-out primitive in the code form, and the answer is right: every
     field equals the reference condition (Table II's criterion), not only well-formed."""
     gen = ConditionGenerator(embedded_backend, max_retries=1)
     result = gen.generate("release cup", exclude=["release"])
-    assert gen.prompt_version == "v7"
+    assert gen.prompt_version == "v8"
     assert result.mode == "generalization" and [t.chat for t in result.transcripts] == ["code"]
     reference = reference_condition(parse_task("release cup"))
     assert result.condition.matches(reference), result.condition.to_text()

@@ -13,9 +13,10 @@ the same way before it answers; a reason speaks of its own example only and leav
 generation shows the examples as the chat's earlier turns (the task name asked, its condition answered)
 with the question as the last turn. In v6 (beyond the paper), a left-out primitive is asked in one chat
 whose examples are Python functions (:mod:`taskcond.code_form`): the signature asked, the body of asserts
-answered; the body is read back into a condition and validated like any answer. v7 (the default) is v6
-whose code chat adds when a container's state is asserted: only when the task opens or closes it, or puts
-something inside it.
+answered; the body is read back into a condition and validated like any answer. v7 is v6 whose code chat
+adds when a container's state is asserted: only when the task opens or closes it, or puts something inside
+it. v8 (the default) asks a seen primitive in v7's code chat too, with its own example repeated right
+before the question: one request per condition instead of two (BENCHMARKS.md, issue 34).
 
 Beyond the paper, the answer's form is guaranteed: a GBNF grammar constrains decoding where the backend
 supports it, and every answer passes a validator that checks the vocabulary, the task's objects and that
@@ -57,7 +58,7 @@ Chat = Literal["spatial", "state", "code"]
 CHATS: tuple[Chat, ...] = ("spatial", "state")
 """The paper's two chats (§III-B); a prompt version with the code form asks a left-out primitive in one
 ``"code"`` chat instead."""
-PROMPT_VERSION = "v7"
+PROMPT_VERSION = "v8"
 ExampleOrder = Literal["auto", "registry", "similar", "recall"]
 GrammarUse = Literal["always", "fallback", "never"]
 REASONING = "Reasoning:"
