@@ -1,5 +1,6 @@
-"""xllamacpp server settings side by side: one backend per setting in one process, uncached, the settings
-alternating per condition (who goes first rotates), so that all see the same load on a shared machine.
+"""xllamacpp server settings and prompt versions side by side: one backend per setting and version in one
+process, uncached, alternating per condition (who goes first rotates), so that all see the same load on a
+shared machine.
 
 Reports each setting's Table II accuracy, its median seconds per condition, and how many answers equal the
 first setting's; ``--tokens`` also prints, per condition of the first setting, the tokens evaluated before
@@ -7,7 +8,7 @@ the answering requests (the repeated own example and the tokens that cut a slot 
 tokens evaluated by the answering requests, and the tokens generated, drafted and accepted.
 
     .venv/bin/python benchmarks/bench_xllamacpp_settings.py [--settings base fa_off poll0] [--trials 1]
-        [--mode generation] [--tokens]
+        [--mode generation] [--tokens] [--prompt-versions v7 v8]
 """
 
 from __future__ import annotations
@@ -22,7 +23,7 @@ from typing import Any
 import xllamacpp
 
 from taskcond.evaluation import score_trial
-from taskcond.generator import ConditionGenerator
+from taskcond.generator import PROMPT_VERSION, ConditionGenerator, prompt_versions
 from taskcond.llm.xllamacpp_backend import XLlamaCppBackend
 from taskcond.primitives import PRIMITIVES
 
@@ -97,12 +98,16 @@ def main() -> None:
     ap.add_argument("--trials", type=int, default=1)
     ap.add_argument("--mode", default="generation", choices=["generation", "generalization"])
     ap.add_argument("--tokens", action="store_true", help="token counts of the first setting's conditions")
+    ap.add_argument("--prompt-versions", nargs="+", choices=prompt_versions(), default=[PROMPT_VERSION])
     args = ap.parse_args()
-    names = args.settings
-    backends = {n: backend_with(n) for n in names}
+    units = [(s, v) for s in args.settings for v in args.prompt_versions]
+    names = [f"{s} {v}" if len(args.prompt_versions) > 1 else s for s, v in units]
+    backends = {n: backend_with(s) for n, (s, _) in zip(names, units, strict=True)}
     requests = Requests()
     requests.wrap(backends[names[0]])
-    generators = {n: ConditionGenerator(b) for n, b in backends.items()}
+    generators = {
+        n: ConditionGenerator(backends[n], prompt_version=v) for n, (_, v) in zip(names, units, strict=True)
+    }
     pids = [p for p in PRIMITIVES if not PRIMITIVES[p].declared]
     results: dict[str, list] = {n: [] for n in names}
     for k, (trial, pid) in enumerate((t, p) for t in range(args.trials) for p in pids):

@@ -1,5 +1,6 @@
-"""A real backend with chosen answers spoiled, for the paths that need a malformed answer from the real
-model (malformed LLM output is expected input)."""
+"""Backends for the validator's paths: a real backend with chosen answers spoiled, for the paths that need a
+malformed answer from the real model (malformed LLM output is expected input), and a scripted replay for the
+prompt layouts and retries that need one exact answer."""
 
 from __future__ import annotations
 
@@ -32,3 +33,17 @@ class Spoiled:
         if self.spoil(len(self.requests) - 1):
             return ChatResponse(self.bad)
         return self.backend.chat(request)
+
+
+@dataclass
+class Replay:
+    """A backend that answers from a script, recording what it was asked."""
+
+    answers: list[str]
+    name: str = "replay"
+    model: str = "script"
+    requests: list[ChatRequest] = field(default_factory=list)
+
+    def chat(self, request: ChatRequest) -> ChatResponse:
+        self.requests.append(request)
+        return ChatResponse(self.answers.pop(0))

@@ -6,11 +6,9 @@ that misbehaves; the ``llm`` tests ask the real embedded model.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
-
 import pytest
 
-from doubles import Spoiled
+from doubles import Replay, Spoiled
 from taskcond import code_form
 from taskcond.conditions import ConditionError
 from taskcond.examples import example_conditions, letter_example, reference_condition
@@ -18,12 +16,13 @@ from taskcond.generator import (
     PROMPT_VERSION,
     ConditionGenerator,
     code_grammar,
+    code_only,
     load_prompt,
     order_seeds,
     parse_answer,
     uses_code_form,
 )
-from taskcond.llm.base import ChatRequest, ChatResponse, LLMError
+from taskcond.llm.base import LLMError
 from taskcond.llm.cache import CachedBackend
 from taskcond.primitives import PRIMITIVES, parse_task
 from taskcond.probe import ProbeResult, probe
@@ -39,20 +38,6 @@ GOOD = """    # before
     assert gripper.holding(a)
     assert b.is_open()
     return [(gripper, a)]  # allowed contacts"""
-
-
-@dataclass
-class Replay:
-    """A backend that answers from a script, recording what it was asked."""
-
-    answers: list[str]
-    name: str = "replay"
-    model: str = "script"
-    requests: list[ChatRequest] = field(default_factory=list)
-
-    def chat(self, request: ChatRequest) -> ChatResponse:
-        self.requests.append(request)
-        return ChatResponse(self.answers.pop(0))
 
 
 @pytest.mark.parametrize("pid", list(PRIMITIVES))
@@ -109,9 +94,9 @@ def test_v6_asks_a_left_out_primitive_in_one_code_chat_and_generation_as_v5():
         assert load_prompt("retry", "v6").template == load_prompt("retry", "v5").template
 
 
-def test_v7_the_default_differs_from_v6_in_the_code_chats_system_message_only():
-    v7, v6 = ConditionGenerator(Replay([])), ConditionGenerator(Replay([]), prompt_version="v6")
-    assert PROMPT_VERSION == "v7" and uses_code_form("v7")
+def test_v7_differs_from_v6_in_the_code_chats_system_message_only():
+    v7, v6 = (ConditionGenerator(Replay([]), prompt_version=v) for v in ("v7", "v6"))
+    assert uses_code_form("v7")
     seven = v7.messages("code", TASK, exclude=["move_into"], order_seed=1)
     six = v6.messages("code", TASK, exclude=["move_into"], order_seed=1)
     assert seven[1:] == six[1:] and seven[0] != six[0]
@@ -119,6 +104,24 @@ def test_v7_the_default_differs_from_v6_in_the_code_chats_system_message_only():
     for chat in ("spatial", "state"):  # generation: the same requests as v6's (v5's)
         assert v7.messages(chat, TASK, order_seed=3) == v6.messages(chat, TASK, order_seed=3)
     assert load_prompt("code_retry", "v7").template == load_prompt("code_retry", "v6").template
+
+
+def test_v8_the_default_asks_a_generated_condition_in_one_code_chat_with_its_own_example_repeated_last():
+    v8, v7 = ConditionGenerator(Replay([GOOD])), ConditionGenerator(Replay([]), prompt_version="v7")
+    assert PROMPT_VERSION == "v8" and code_only("v8") and not code_only("v7")
+    result = v8.generate(TASK)
+    assert result.mode == "generation" and [t.chat for t in result.transcripts] == ["code"]
+    assert result.condition.matches(reference_condition(TASK))
+    (request,) = v8.backend.requests
+    own = code_form.signature(parse_task(example_conditions()["move_into"].task_name))
+    shown = [m.content for m in request.messages[1:-1:2]]
+    assert len(shown) == len(PRIMITIVES) + 1 and shown.count(own) == 2 and shown[-1] == own
+    assert request.shared_messages == len(request.messages) - 3  # all before the repeat
+    assert request.messages[-1].content == code_form.signature(TASK)
+    # a left-out primitive: the same chat as v7's, so leave-one-out answers stay the same
+    assert v8.layout("code", TASK, exclude=["move_into"], order_seed=4) == v7.layout(
+        "code", TASK, exclude=["move_into"], order_seed=4
+    )
 
 
 def test_v6_code_answer_goes_through_the_validator_retry_and_grammar():
@@ -179,11 +182,11 @@ def test_probe_scores_yes_no_answers_against_the_example_conditions():
 
 @pytest.mark.llm
 def test_embedded_code_answer_of_a_left_out_primitive_parses_and_validates(embedded_backend):
-    """The default prompts (v7) ask a left-out primitive in the code form, and the answer is right: every
+    """The default prompts (v8) ask a left-out primitive in the code form, and the answer is right: every
     field equals the reference condition (Table II's criterion), not only well-formed."""
     gen = ConditionGenerator(embedded_backend, max_retries=1)
     result = gen.generate("release cup", exclude=["release"])
-    assert gen.prompt_version == "v7"
+    assert gen.prompt_version == "v8"
     assert result.mode == "generalization" and [t.chat for t in result.transcripts] == ["code"]
     reference = reference_condition(parse_task("release cup"))
     assert result.condition.matches(reference), result.condition.to_text()

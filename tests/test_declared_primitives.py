@@ -135,7 +135,7 @@ def test_bad_declaration_files_name_the_file(tmp_path) -> None:
 def test_a_declared_primitive_is_always_generalized_without_examples_of_its_own(declared) -> None:
     turns = example_turns("spatial")
     assert len(turns) == 10  # the paper's ten examples, none for the declared primitives
-    gen = ConditionGenerator(backend=None)  # type: ignore[arg-type]
+    gen = ConditionGenerator(backend=None, prompt_version="v7")  # type: ignore[arg-type]
     messages, _ = gen.layout("spatial", parse_task("push cube in front of bowl"), ("push_in_front",))
     text = "\n".join(m.content for m in messages)
     assert "push A in front of B" in text and "move A in front of B" in text

@@ -6,18 +6,19 @@ paths that need a specific bad answer, a scripted replay backend standing in for
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
-
 import pytest
 
-from doubles import Spoiled
+from doubles import Replay, Spoiled
 from taskcond.conditions import ConditionError, TaskCondition
 from taskcond.examples import reference_condition
 from taskcond.generator import ConditionGenerator, answer_grammar, examples_block, parse_answer
-from taskcond.llm.base import ChatMessage, ChatRequest, ChatResponse, LLMError, Sampling
+from taskcond.llm.base import ChatMessage, ChatRequest, LLMError, Sampling
 from taskcond.llm.cache import CachedBackend
 from taskcond.llm.embedded import PREFIX_CACHE_BYTES, EmbeddedBackend
 from taskcond.primitives import PRIMITIVES, parse_task
+
+TWO_CHATS = "v7"
+"""A prompt version whose generation asks the paper's two chats (the default, v8, asks one code chat)."""
 
 GOOD_SPATIAL = """Relevant objects: A, B, gripper
 Pre-conditions:
@@ -35,20 +36,6 @@ Post-conditions:
   gripper grasping A
   B open
 """
-
-
-@dataclass
-class Replay:
-    """A backend that answers from a script, recording what it was asked (for the validator's paths)."""
-
-    answers: list[str]
-    name: str = "replay"
-    model: str = "script"
-    requests: list[ChatRequest] = field(default_factory=list)
-
-    def chat(self, request: ChatRequest) -> ChatResponse:
-        self.requests.append(request)
-        return ChatResponse(self.answers.pop(0))
 
 
 def test_prompt_has_the_four_parts_and_letters_only():
@@ -121,7 +108,7 @@ def test_parse_answer_refuses_malformed_answers(answer, chat, message):
 
 def test_invalid_answer_is_retried_with_the_error_shown():
     backend = Replay(["Sure! Here you go.", GOOD_SPATIAL, GOOD_STATE])
-    result = ConditionGenerator(backend).generate("move bottle into box")
+    result = ConditionGenerator(backend, prompt_version=TWO_CHATS).generate("move bottle into box")
     assert result.condition.matches(reference_condition(parse_task("move bottle into box")))
     assert result.attempts == 3
     first, retry = backend.requests[0].messages, backend.requests[1].messages
@@ -134,7 +121,9 @@ def test_invalid_answer_is_retried_with_the_error_shown():
 def test_a_second_retry_samples_instead_of_repeating_the_greedy_one():
     """Greedy decoding of the same chat mostly repeats a refused answer; the second retry samples."""
     backend = Replay(["nonsense", "nonsense", GOOD_SPATIAL, GOOD_STATE])
-    result = ConditionGenerator(backend, temperature=0.7).generate("move bottle into box", seed=5)
+    result = ConditionGenerator(backend, temperature=0.7, prompt_version=TWO_CHATS).generate(
+        "move bottle into box", seed=5
+    )
     assert result.attempts == 4
     assert [r.sampling.temperature for r in backend.requests] == [0.0, 0.0, 0.7, 0.0]
     assert [r.sampling.seed for r in backend.requests] == [5, 6, 7, 5]
@@ -144,14 +133,14 @@ def test_a_second_retry_samples_instead_of_repeating_the_greedy_one():
 def test_retries_are_bounded_and_end_in_a_one_line_error():
     backend = Replay(["nonsense"] * 3)
     with pytest.raises(LLMError, match=r"\[replay\] script gave no valid spatial answer .* in 3 attempts"):
-        ConditionGenerator(backend, max_retries=2).generate("move bottle into box")
+        ConditionGenerator(backend, max_retries=2, prompt_version=TWO_CHATS).generate("move bottle into box")
     assert not backend.answers
 
 
 def test_self_consistency_keeps_the_majority_of_each_condition():
     noisy = GOOD_SPATIAL.replace("  gripper inside B\n", "  gripper inside B\n  B above A\n")
     backend = Replay([GOOD_SPATIAL, noisy, GOOD_SPATIAL, GOOD_STATE, GOOD_STATE, GOOD_STATE])
-    result = ConditionGenerator(backend, samples=3).generate("move bottle into box")
+    result = ConditionGenerator(backend, samples=3, prompt_version=TWO_CHATS).generate("move bottle into box")
     assert result.condition.matches(reference_condition(parse_task("move bottle into box")))
     assert [r.sampling.seed for r in backend.requests] == [0, 1, 2, 0, 1, 2]
     assert all(r.sampling.temperature > 0 for r in backend.requests)
@@ -160,12 +149,14 @@ def test_self_consistency_keeps_the_majority_of_each_condition():
 def test_response_cache_answers_repeats_without_the_backend(tmp_path):
     backend = Replay([GOOD_SPATIAL, GOOD_STATE])
     cached = CachedBackend(backend, tmp_path)
-    first = ConditionGenerator(cached).generate("move bottle into box")
-    second = ConditionGenerator(cached).generate("move bottle into box")
+    first = ConditionGenerator(cached, prompt_version=TWO_CHATS).generate("move bottle into box")
+    second = ConditionGenerator(cached, prompt_version=TWO_CHATS).generate("move bottle into box")
     assert not first.cached and second.cached
     assert second.condition == first.condition
     assert len(backend.requests) == 2
-    other = ConditionGenerator(CachedBackend(Replay([GOOD_SPATIAL]), tmp_path), grammar="never")
+    other = ConditionGenerator(
+        CachedBackend(Replay([GOOD_SPATIAL]), tmp_path), grammar="never", prompt_version=TWO_CHATS
+    )
     assert other.backend.key(backend.requests[0]) != other.backend.key(
         ChatRequest(backend.requests[0].messages, backend.requests[0].sampling, None)
     )
@@ -353,12 +344,17 @@ def test_evaluation_scores_every_field_and_counts_invalid_answers_as_failures():
     spatial = head + "  none\nPost-conditions:\n  none\nCollisions: gripper and A"
     state = head + "  gripper not grasping\nPost-conditions:\n  gripper grasping A"
     backend = Replay([spatial, state, "nonsense", "nonsense", "nonsense"])
-    result = evaluate_conditions(ConditionGenerator(backend), trials=1, primitives=["grasp"])
+    result = evaluate_conditions(
+        ConditionGenerator(backend, prompt_version=TWO_CHATS), trials=1, primitives=["grasp"]
+    )
     assert (result.generation["grasp"].correct, result.generalization["grasp"].correct) == (1, 0)
     assert dict(result.generalization["grasp"].failures) == {"no valid answer": 1}
     assert "| Grasp | 100% (1/1) | 0% (0/1) |" in result.table()
     only = evaluate_conditions(
-        ConditionGenerator(Replay([spatial, state])), 1, ["grasp"], modes=["generation"]
+        ConditionGenerator(Replay([spatial, state]), prompt_version=TWO_CHATS),
+        1,
+        ["grasp"],
+        modes=["generation"],
     )
     assert "| **all** | 100% (1/1) | not measured |" in only.table()
 
@@ -439,7 +435,7 @@ def test_embedded_prefix_states_beyond_the_bound_are_dropped_oldest_first(prefix
 def test_the_shared_prefix_ends_before_the_repeated_own_example():
     """v5's generation shares the system message and every example; the repeated own example and the
     question follow it. The one-message layout marks nothing."""
-    gen = ConditionGenerator(Replay([]))
+    gen = ConditionGenerator(Replay([]), prompt_version=TWO_CHATS)
     task = parse_task("grasp cup")
     messages, shared = gen.layout("spatial", task)
     assert shared == 1 + 2 * len(PRIMITIVES)

@@ -13,9 +13,10 @@ the same way before it answers; a reason speaks of its own example only and leav
 generation shows the examples as the chat's earlier turns (the task name asked, its condition answered)
 with the question as the last turn. In v6 (beyond the paper), a left-out primitive is asked in one chat
 whose examples are Python functions (:mod:`taskcond.code_form`): the signature asked, the body of asserts
-answered; the body is read back into a condition and validated like any answer. v7 (the default) is v6
-whose code chat adds when a container's state is asserted: only when the task opens or closes it, or puts
-something inside it.
+answered; the body is read back into a condition and validated like any answer. v7 is v6 whose code chat
+adds when a container's state is asserted: only when the task opens or closes it, or puts something inside
+it. v8 (the default) asks a seen primitive in v7's code chat too, with its own example repeated right
+before the question: one request per condition instead of two (BENCHMARKS.md, issue 34).
 
 Beyond the paper, the answer's form is guaranteed: a GBNF grammar constrains decoding where the backend
 supports it, and every answer passes a validator that checks the vocabulary, the task's objects and that
@@ -57,7 +58,7 @@ Chat = Literal["spatial", "state", "code"]
 CHATS: tuple[Chat, ...] = ("spatial", "state")
 """The paper's two chats (§III-B); a prompt version with the code form asks a left-out primitive in one
 ``"code"`` chat instead."""
-PROMPT_VERSION = "v7"
+PROMPT_VERSION = "v8"
 ExampleOrder = Literal["auto", "registry", "similar", "recall"]
 GrammarUse = Literal["always", "fallback", "never"]
 REASONING = "Reasoning:"
@@ -101,6 +102,14 @@ def uses_code_form(version: str = PROMPT_VERSION) -> bool:
     """Whether a prompt version asks a left-out primitive for its condition as a Python function (one chat,
     :mod:`taskcond.code_form`) instead of the two chain-of-thought chats: it has a ``code.txt`` prompt."""
     return _prompt_file("code.txt", version) is not None
+
+
+@cache
+def code_only(version: str = PROMPT_VERSION) -> bool:
+    """Whether a prompt version asks every condition, a generated one too, in the code form: it has a
+    ``code.txt`` prompt and no two-chat prompts (``spatial.txt``, ``state.txt``). One chat instead of two
+    halves the requests and the tokens evaluated per condition (BENCHMARKS.md, issue 34)."""
+    return uses_code_form(version) and _prompt_file("spatial.txt", version) is None
 
 
 def similarity(a: Primitive, b: Primitive) -> tuple[int, int]:
@@ -478,10 +487,7 @@ class ConditionGenerator:
         """
         excluded = set(exclude)
         if chat == "code":
-            turns = [ChatMessage("system", load_prompt("code", self.prompt_version).template.strip())]
-            for name, answer in code_turns(task, excluded, order_seed):
-                turns += [ChatMessage("user", name), ChatMessage("assistant", answer)]
-            return (*turns, ChatMessage("user", code_form.signature(task))), 0
+            return self._code_layout(task, excluded, order_seed)
         cot = task.primitive.id in excluded
         template = load_prompt(f"{chat}_cot" if cot else chat, self.prompt_version)
         one_message = "$examples" in template.template
@@ -502,6 +508,27 @@ class ConditionGenerator:
         for name, answer in examples:
             turns += [ChatMessage("user", name), ChatMessage("assistant", answer)]
         return (*turns, ChatMessage("user", f"Task name: {task.letter_name}")), shared
+
+    def _code_layout(
+        self, task: ParsedTask, excluded: set[str], order_seed: int | None
+    ) -> tuple[tuple[ChatMessage, ...], int]:
+        """The code form's chat (:meth:`layout`): the system message, each example's signature and body as
+        a user and an assistant turn, the task's signature last. Where the task's own primitive is shown
+        and the order is ``"recall"`` (``"auto"`` here), its example is repeated right before the
+        question; the prompts then share everything before the repeat. A left-out primitive has no
+        example to repeat: its prompt is the same whatever the order setting."""
+        turns = [ChatMessage("system", load_prompt("code", self.prompt_version).template.strip())]
+        examples = code_turns(task, excluded, order_seed)
+        for name, answer in examples:
+            turns += [ChatMessage("user", name), ChatMessage("assistant", answer)]
+        shared = 0
+        if self.example_order in ("auto", "recall") and task.primitive.id not in excluded:
+            own = code_form.signature(parse_task(example_conditions()[task.primitive.id].task_name))
+            shared = len(turns)
+            for name, answer in examples:
+                if name == own:
+                    turns += [ChatMessage("user", name), ChatMessage("assistant", answer)]
+        return (*turns, ChatMessage("user", code_form.signature(task))), shared
 
     def prompt(
         self, chat: Chat, task: ParsedTask, exclude: Iterable[str] = (), order_seed: int | None = None
@@ -608,7 +635,9 @@ class ConditionGenerator:
         mode: Literal["generation", "generalization"] = (
             "generalization" if task.primitive.id in excluded else "generation"
         )
-        if mode == "generalization" and uses_code_form(self.prompt_version):
+        if uses_code_form(self.prompt_version) and (
+            mode == "generalization" or code_only(self.prompt_version)
+        ):
             condition, transcripts = self._code_votes(task, excluded, order_seed, seed)
             return GenerationResult(condition, mode, excluded, transcripts, time.perf_counter() - start)
         parts: dict[Chat, TaskCondition] = {}
@@ -640,6 +669,7 @@ __all__ = [
     "GenerationResult",
     "answer_grammar",
     "code_grammar",
+    "code_only",
     "code_turns",
     "example_turns",
     "examples_block",

@@ -25,8 +25,9 @@ SamplesOption = Annotated[
     typer.Option(
         "--samples",
         min=1,
-        help="Self-consistency, majority per condition: for a left-out primitive in the code form (v6, v7), "
-        "greedy answers over this many example orders; otherwise answers sampled per chat.",
+        help="Self-consistency, majority per condition: in the code form (every condition in v8, a left-out "
+        "primitive in v6 and v7), greedy answers over this many example orders; otherwise answers sampled "
+        "per chat.",
     ),
 ]
 NoCacheOption = Annotated[
@@ -40,7 +41,8 @@ PromptVersionOption = Annotated[
     str,
     typer.Option(
         "--prompt-version",
-        help="Prompt set: v7 (default: v6 whose code chat says a container's state is asserted only "
+        help="Prompt set: v8 (default: every condition in v7's code chat, a seen primitive with its own "
+        "example repeated last), v7 (v6 whose code chat says a container's state is asserted only "
         "when the task opens, closes or puts something inside it), v6 (a left-out primitive's condition "
         "written as a Python function in one chat; generation as v5), v5 (generation with the examples as "
         "earlier turns of the chat; the "
