@@ -108,7 +108,7 @@ def test_drafts_keep_the_greedy_answer(xbackend):
     """n-gram drafts change how many evaluations an answer takes, not the answer: a generation prompt,
     whose answer the repeated own example shows, is mostly accepted from drafts, and a server without
     drafts (a second one: llama.cpp sets speculation when it starts) gives the same answer."""
-    messages = ConditionGenerator(xbackend).messages("state", parse_task("move bowl into top drawer"))
+    messages = ConditionGenerator(xbackend).messages("code", parse_task("move bowl into top drawer"))
     request = ChatRequest(messages, stop=("\n\n",))
     xbackend.forget()
     accepted = xbackend.accepted
