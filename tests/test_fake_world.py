@@ -97,7 +97,7 @@ class TableTopWorld:
             return f"{objects[0]} has nothing to open"
         return None
 
-    def reach_error(self, position: np.ndarray) -> str | None:
+    def reach_error(self, position: np.ndarray, orientation: np.ndarray | None = None) -> str | None:
         return None
 
     def sweep(self, positions: np.ndarray, orientations: np.ndarray, ignore: tuple[str, ...]) -> float:

@@ -669,9 +669,12 @@ class Approach:
         goal plus the later pieces' displacements), or when the carried object's footprint there (its
         perceived box, carried with the hand) comes nearer than :attr:`ExecutionConfig.clearance` to another
         object's box that reaches higher than that above the carried object's bottom there (not a drawer
-        under the cabinet's top), the nearest spot that is clear, in steps of 2 cm up to 20 cm in 16
-        directions, where the object still stands in ``relation`` to ``target_name`` (:func:`_keeps_place`)
-        and the hand's goals are within reach. On top: when the carried object's bottom would end more than
+        under the cabinet's top), or when the hand, turned as it holds the object now, cannot take the
+        skill's goals there (:meth:`World.reach_error` with the orientation: the far corner of the
+        cabinet's top, where the hand sagged 10 cm short and tipped the toothpaste as it set it down), the
+        nearest spot that is clear, in steps of 2 cm up to 20 cm in 16 directions, where the object still
+        stands in ``relation`` to ``target_name`` (:func:`_keeps_place`) and the hand's goals are reached.
+        On top: when the carried object's bottom would end more than
         :data:`PLACE_ABOVE` below the top of ``target_name``'s box, the goal is raised to put it that much
         above instead: a skill demonstrated with another object (``move_on_top-spatula-box`` for the mug)
         holds it at another height. When no spot within reach keeps that far, the one that keeps farthest
@@ -690,7 +693,7 @@ class Approach:
         end = first.goal(first.dmp.y0, target)
         for seg in skill.segments[1:]:
             end = seg.goal(end, target)
-        here, _ = self.world.ee_pose()
+        here, heading = self.world.ee_pose()
         lo, hi = obs.boxes[carried]
         foot = (lo[:2] - here[:2] + end[:2], hi[:2] - here[:2] + end[:2])
         middle = (obs.centers.get(carried, (lo + hi) / 2)[:2] - here[:2]) + end[:2]
@@ -702,18 +705,21 @@ class Approach:
         near = {n: (a[:2], b[:2]) for n, (a, b) in obs.boxes.items() if n not in skip and b[2] > bottom}
         others = list(near.values())
         out = (middle - target[:2]) / max(float(np.linalg.norm(middle - target[:2])), 1e-9)
-        if _gap(foot, others, np.zeros(2)) >= self.config.clearance:
+        goals = [first.goal(first.dmp.y0, target), end]
+
+        def reached(shift: np.ndarray) -> bool:  # the hand, as it holds the object now
+            return all(self.world.reach_error(q + np.array([*shift, lift]), heading) is None for q in goals)
+
+        if _gap(foot, others, np.zeros(2)) >= self.config.clearance and reached(np.zeros(2)):
             return np.array([0.0, 0.0, lift])
         free = set(_bystanders(target_name, obs))
         standing, fixed = (
             [b for n, b in near.items() if n in free],
             [b for n, b in near.items() if n not in free],
         )
-        goals = [first.goal(first.dmp.y0, target), end]
 
         def fits(shift: np.ndarray) -> bool:
-            keeps = _keeps_place(relation, middle, shift, support, out)
-            return keeps and all(self.world.reach_error(q + np.array([*shift, lift])) is None for q in goals)
+            return _keeps_place(relation, middle, shift, support, out) and reached(shift)
 
         return np.array([*self._clearest(foot, standing, fixed, fits), lift])
 

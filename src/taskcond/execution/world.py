@@ -129,8 +129,11 @@ class World(Protocol):
         here (an unknown object, opening something without a lid, door or drawer), or None if it can."""
         ...
 
-    def reach_error(self, position: np.ndarray) -> str | None:
-        """Why the end effectors cannot reach ``position`` (3k,) m (one point per arm), or None."""
+    def reach_error(self, position: np.ndarray, orientation: np.ndarray | None = None) -> str | None:
+        """Why the end effectors cannot reach ``position`` (3k,) m (one point per arm), or None. With the
+        first arm's ``orientation`` (4,) xyzw, also why its hand cannot take that pose (an arm solved by IK
+        misses it by more than :data:`REACHED`, e.g. a hand pointing down at the far edge of the cabinet's
+        top, which sags 10 cm short and tips what it sets down)."""
         ...
 
     def sweep(self, positions: np.ndarray, orientations: np.ndarray, ignore: tuple[str, ...]) -> float:

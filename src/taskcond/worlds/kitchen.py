@@ -239,7 +239,8 @@ class KitchenWorld:
             return None
         return fits_into(roles[a], roles[c]) or hand_enters(roles[a], roles[c])
 
-    def reach_error(self, position: np.ndarray) -> str | None:
+    def reach_error(self, position: np.ndarray, orientation: np.ndarray | None = None) -> str | None:
+        """:meth:`World.reach_error`: the Franka's pose is solved from :data:`~taskcond.sim.franka.HOME`."""
         position = np.asarray(position, float)
         for arm in range(len(position) // 3):
             point = position[3 * arm : 3 * arm + 3]
@@ -253,6 +254,10 @@ class KitchenWorld:
                 return f"{distance:.2f} m from the {self._arms[arm]}'s shoulder, it reaches {reach:.2f} m"
             if point[2] < -0.05:
                 return f"{point[2]:.2f} m is below the table"
+        if orientation is not None:
+            miss = self.env.robot.solve_ik(position[:3], orientation, np.array(HOME)).errors[0]
+            if miss > REACHED:
+                return f"the {self._arms[0]}'s hand misses that pose by {miss * 100:.0f} cm"
         return None
 
     def sweep(self, positions: np.ndarray, orientations: np.ndarray, ignore: tuple[str, ...]) -> float:

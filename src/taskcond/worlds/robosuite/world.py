@@ -164,7 +164,9 @@ class RobosuiteWorld:
             return f"{into.reference!r} is not a container (containers: {', '.join(self.scene.containers)})"
         return None
 
-    def reach_error(self, position: np.ndarray) -> str | None:
+    def reach_error(self, position: np.ndarray, orientation: np.ndarray | None = None) -> str | None:
+        """:meth:`World.reach_error` by distance only: the operational-space controller holds any
+        orientation it reaches."""
         distance = float(np.linalg.norm(np.asarray(position, float)[:3] - self._shoulder))
         if distance > REACH:
             return f"{distance:.2f} m from the Panda's shoulder, beyond its reach of {REACH} m"
