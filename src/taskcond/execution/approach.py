@@ -666,23 +666,18 @@ class Approach:
     ) -> np.ndarray:
         """Where on top of (``relation`` ABOVE) or in front of (IN_FRONT_OF) ``target_name`` (centre
         ``target`` (3,) m) the carried object goes: the demonstrated spot (the skill's end: the approach's
-        goal plus the later pieces' displacements), or when the carried object's footprint there (its
+        goal plus the later pieces' displacements) unless the carried object's footprint there (its
         perceived box, carried with the hand) comes nearer than :attr:`ExecutionConfig.clearance` to another
-        object's box that reaches higher than that above the carried object's bottom there (not a drawer
-        under the cabinet's top), or when the hand, turned as it holds the object now, cannot take the
-        skill's goals there (:meth:`World.reach_error` with the orientation: the far corner of the
-        cabinet's top, where the hand sagged 10 cm short and tipped the toothpaste as it set it down), the
-        nearest spot that is clear, in steps of 2 cm up to 20 cm in 16 directions, where the object still
-        stands in ``relation`` to ``target_name`` (:func:`_keeps_place`) and the hand's goals are reached.
-        On top: when the carried object's bottom would end more than
-        :data:`PLACE_ABOVE` below the top of ``target_name``'s box, the goal is raised to put it that much
-        above instead: a skill demonstrated with another object (``move_on_top-spatula-box`` for the mug)
-        holds it at another height. When no spot within reach keeps that far, the one that keeps farthest
-        from the others (:meth:`_clearest`), if it keeps farther than the demonstrated spot. Returns the
-        shift (3,) m of the goal (zero when the demonstrated spot is clear and high enough). A demonstrated
-        spot is where the demonstration's scene had room, not where a random scene has (issue 31: the cube
-        set down in front of the box onto the bottle that stood there knocked it over; a bowl set down in
-        front of the box, where the bottle stood and the toothpaste stood beside it, pushed it over)."""
+        object's box that reaches above its bottom there (not a drawer under the cabinet's top), or the hand,
+        turned as it holds the object now, cannot take the skill's goals there (:meth:`World.reach_error`;
+        it sagged 10 cm short of the cabinet's far corner and tipped the toothpaste). Then the nearest clear
+        spot, in steps of 2 cm up to 20 cm in 16 directions, where the object keeps its ``relation``
+        (:func:`_keeps_place`) and the hand reaches; if none keeps clear, :meth:`_clearest`'s fallback. On
+        top, a carried object whose bottom would end more than :data:`PLACE_ABOVE` below the top of
+        ``target_name``'s box is raised to that much above it (a skill demonstrated with another object
+        holds it at another height). Returns the goal's shift (3,) m. A demonstrated spot is where the
+        demonstration's scene had room, not where a random scene has (issue 31: the cube set down in front
+        of the box onto the bottle that stood there knocked it over)."""
         zero = np.zeros(3)
         carried = obs.grasped()
         if carried is None or carried not in obs.boxes or target_name not in obs.boxes:
@@ -713,10 +708,8 @@ class Approach:
         if _gap(foot, others, np.zeros(2)) >= self.config.clearance and reached(np.zeros(2)):
             return np.array([0.0, 0.0, lift])
         free = set(_bystanders(target_name, obs))
-        standing, fixed = (
-            [b for n, b in near.items() if n in free],
-            [b for n, b in near.items() if n not in free],
-        )
+        standing = [b for n, b in near.items() if n in free]
+        fixed = [b for n, b in near.items() if n not in free]
 
         def fits(shift: np.ndarray) -> bool:
             return _keeps_place(relation, middle, shift, support, out) and reached(shift)
