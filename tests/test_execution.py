@@ -632,16 +632,26 @@ def test_a_grasp_turns_by_the_heading_change_modulo_half_a_turn() -> None:
 
 def test_a_place_in_front_moved_clear_of_a_neighbour_stays_in_front() -> None:
     """Issue 31: a place in front of a box (front: -x) may move out or sideways within the box's width,
-    not nearer to it, not past its side, not more than ASIDE_OUT out; a place on top stays over it."""
+    not nearer to it, not past its side, not more than ASIDE_OUT out; a place on top stays over it and sticks
+    out of its top no farther than the unmoved place (a bowl pulled half over the front edge tips)."""
     box = (np.array([0.5, -0.3]), np.array([0.7, 0.0]))
     middle, out = np.array([0.35, -0.15]), np.array([-1.0, 0.0])
-    assert _keeps_place(Relation.IN_FRONT_OF, middle, np.array([-0.08, 0.0]), box, out)  # out
-    assert _keeps_place(Relation.IN_FRONT_OF, middle, np.array([0.0, 0.1]), box, out)  # sideways
-    assert not _keeps_place(Relation.IN_FRONT_OF, middle, np.array([0.04, 0.0]), box, out)  # nearer
-    assert not _keeps_place(Relation.IN_FRONT_OF, middle, np.array([0.0, 0.2]), box, out)  # beside it
-    assert not _keeps_place(Relation.IN_FRONT_OF, middle, np.array([-0.12, 0.0]), box, out)  # too far
-    assert not _keeps_place(Relation.ABOVE, middle, np.zeros(2), box, out)  # not over the box
-    assert _keeps_place(Relation.ABOVE, np.array([0.6, -0.1]), np.array([0.04, 0.04]), box, out)
+    foot = (middle - 0.02, middle + 0.02)
+
+    def keeps(relation: Relation, shift: list[float], at: np.ndarray = middle, size: float = 0.02) -> bool:
+        return _keeps_place(relation, at, np.array(shift), box, out, (at - size, at + size))
+
+    assert keeps(Relation.IN_FRONT_OF, [-0.08, 0.0]) and keeps(
+        Relation.IN_FRONT_OF, [0.0, 0.1]
+    )  # out, sideways
+    assert not keeps(Relation.IN_FRONT_OF, [0.04, 0.0])  # nearer
+    assert not keeps(Relation.IN_FRONT_OF, [0.0, 0.2])  # beside it
+    assert not keeps(Relation.IN_FRONT_OF, [-0.12, 0.0])  # too far
+    assert not _keeps_place(Relation.ABOVE, middle, np.zeros(2), box, out, foot)  # not over the box
+    assert keeps(Relation.ABOVE, [0.04, 0.04], np.array([0.6, -0.1]))
+    wide = np.array([0.6, -0.1])  # a bowl 10 cm wide over the box's middle
+    assert keeps(Relation.ABOVE, [-0.05, 0.0], wide, 0.05)  # to the front edge, within the top
+    assert not keeps(Relation.ABOVE, [-0.09, 0.0], wide, 0.05)  # centre over the top, half over the edge
 
 
 def test_only_what_hangs_over_a_place_not_what_stands_beside_it_keeps_a_carry_from_coming_down() -> None:

@@ -712,7 +712,7 @@ class Approach:
         fixed = [b for n, b in near.items() if n not in free]
 
         def fits(shift: np.ndarray) -> bool:
-            return _keeps_place(relation, middle, shift, support, out) and reached(shift)
+            return _keeps_place(relation, middle, shift, support, out, foot) and reached(shift)
 
         return np.array([*self._clearest(foot, standing, fixed, fits), lift])
 
@@ -944,20 +944,33 @@ def _keeps_place(
     shift: np.ndarray,
     support: tuple[np.ndarray, np.ndarray],
     out: np.ndarray,
+    foot: tuple[np.ndarray, np.ndarray],
 ) -> bool:
     """Whether a carried object whose centre ends at ``middle + shift`` (each (2,) m, world x-y) still
     stands in ``relation`` to the target whose box spans ``support`` (lower and upper (2,) m corners): over
-    it (ABOVE); in front of it (IN_FRONT_OF): moved no nearer to it along ``out`` (unit (2,), from the
-    target's centre towards the demonstrated spot ``middle``, the demonstration's front) and at most
-    :data:`ASIDE_OUT` farther, its centre across that way within the target's extent."""
+    it (ABOVE), its footprint ``foot`` (corners (2,) m, unshifted) sticking out of the top no farther than
+    at the demonstrated spot (a bowl pulled half over the microwave's front edge tips); in front of it
+    (IN_FRONT_OF): moved no nearer to it along ``out`` (unit (2,), from the target's centre towards the
+    demonstrated spot ``middle``, the demonstration's front) and at most :data:`ASIDE_OUT` farther, its
+    centre across that way within the target's extent."""
     point = middle + shift
     lo, hi = support
     if relation is Relation.ABOVE:
-        return bool(np.all(point >= lo) and np.all(point <= hi))
+        inside = bool(np.all(point >= lo) and np.all(point <= hi))
+        return inside and _overhang(foot, shift, support) <= _overhang(foot, np.zeros(2), support) + 1e-3
     across = np.array([-out[1], out[0]])
     corners = np.array([[lo[0], lo[1]], [lo[0], hi[1]], [hi[0], lo[1]], [hi[0], hi[1]]]) @ across
     outward = float(shift @ out)
     return bool(0.0 <= outward <= ASIDE_OUT and corners.min() <= float(point @ across) <= corners.max())
+
+
+def _overhang(
+    foot: tuple[np.ndarray, np.ndarray], shift: np.ndarray, support: tuple[np.ndarray, np.ndarray]
+) -> float:
+    """How far (m, summed over the four sides) the footprint ``foot`` (lower and upper (2,) m corners)
+    moved by ``shift`` (2,) m sticks out of ``support`` (the same)."""
+    lo, hi = foot[0] + shift, foot[1] + shift
+    return float(np.sum(np.maximum(support[0] - lo, 0.0) + np.maximum(hi - support[1], 0.0)))
 
 
 def _tall(name: str, obs: Observation) -> bool:

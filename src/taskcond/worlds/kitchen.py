@@ -240,7 +240,8 @@ class KitchenWorld:
         return fits_into(roles[a], roles[c]) or hand_enters(roles[a], roles[c])
 
     def reach_error(self, position: np.ndarray, orientation: np.ndarray | None = None) -> str | None:
-        """:meth:`World.reach_error`: the Franka's pose is solved from :data:`~taskcond.sim.franka.HOME`."""
+        """:meth:`World.reach_error`: the Franka's pose is solved from :data:`~taskcond.sim.franka.HOME` and
+        from its joints now; it misses only if both answers do."""
         position = np.asarray(position, float)
         for arm in range(len(position) // 3):
             point = position[3 * arm : 3 * arm + 3]
@@ -255,7 +256,9 @@ class KitchenWorld:
             if point[2] < -0.05:
                 return f"{point[2]:.2f} m is below the table"
         if orientation is not None:
-            miss = self.env.robot.solve_ik(position[:3], orientation, np.array(HOME)).errors[0]
+            robot = self.env.robot
+            seeds = (np.array(HOME), robot.joint_positions())
+            miss = min(robot.solve_ik(position[:3], orientation, seed).errors[0] for seed in seeds)
             if miss > REACHED:
                 return f"the {self._arms[0]}'s hand misses that pose by {miss * 100:.0f} cm"
         return None
