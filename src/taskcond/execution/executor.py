@@ -316,7 +316,8 @@ class Executor(Approach):
     def _uncovered(self, cond: TaskCondition, task: str, depth: int, obs: Observation) -> TaskCondition:
         """``cond`` of a move into a container (:attr:`~taskcond.primitives.Primitive.places` ``inside``)
         with ``C closed`` added to its pre-conditions for each other container C that is open in ``obs``
-        and hangs over the target's opening (:func:`_covering`), so that Alg. 1 closes it first (issue 31:
+        and hangs over the target's opening (:func:`_covering`) and can be closed (a bowl set on the
+        cabinet's top over the open top drawer cannot), so that Alg. 1 closes it first (issue 31:
         the top drawer, open over the open bottom drawer, took the object carried into the bottom drawer
         against its front, or its underside); ``cond`` itself for every other primitive. Derived from the
         perceived boxes, not from the condition source: a generated condition names the container the
@@ -329,6 +330,7 @@ class Executor(Approach):
             ContainerState(c, False)
             for c in _covering(container, obs)
             if ContainerState(c, False) not in cond.pre_conditions
+            and self.world.affords("close", (c,)) is None
         )
         if not covering:
             return cond
