@@ -214,11 +214,10 @@ class Approach:
             self._step(here, quat, opened)
         self._straight(here + np.array([0.0, 0.0, BACK_OFF_HEIGHT]), quat, opened)
 
-    def _touched(self, obj: str) -> bool:
-        """Whether a hand touches ``obj`` now."""
-        return any(
-            obj in (t.a, t.b) and not {t.a, t.b}.isdisjoint(self.world.arms) for t in self.world.touches()
-        )
+    def _touched(self, obj: str, arms: int | None = None) -> bool:
+        """Whether a hand (of the first ``arms`` arms; None: any) touches ``obj`` now."""
+        hands = self.world.arms[:arms]
+        return any(obj in (t.a, t.b) and not {t.a, t.b}.isdisjoint(hands) for t in self.world.touches())
 
     def _set_down(self, task: str, depth: int) -> None:
         """Beyond the paper: before a release, lower the held object onto what lies under it

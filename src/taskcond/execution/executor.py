@@ -576,8 +576,7 @@ class Executor(Approach):
         primitive = parse_task(aim.task).primitive
         if primitive.approach is not HandApproach.EMPTY_HAND or primitive.grasps or aim.target_name is None:
             return False
-        hands = set(self.world.arms[: aim.arms])
-        return any(hands & {t.a, t.b} and aim.target_name in (t.a, t.b) for t in self.world.touches())
+        return self._touched(aim.target_name, aim.arms)
 
     def _piece_goal(self, seg: Segment, aim: Aim, base: np.ndarray) -> np.ndarray:
         """The goal ((3k,) m) of ``aim``'s piece ``seg`` (:func:`piece_goal`; a relative piece's from
