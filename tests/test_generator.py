@@ -359,20 +359,17 @@ def test_evaluation_scores_every_field_and_counts_invalid_answers_as_failures():
     assert "| **all** | 100% (1/1) | not measured |" in only.table()
 
 
-def _small_request(
-    question: str, second: tuple[str, str] = ("cherry", "red"), shared: tuple[int, ...] = (3,)
-) -> ChatRequest:
-    """A few-shot chat of two examples and a question; by default its first three messages are the
-    shared prefix."""
+def _small_request(question: str) -> ChatRequest:
+    """A few-shot chat of two examples and a question; its first three messages are the shared prefix."""
     turns = [
         ChatMessage("system", "Answer with the colour of the named fruit, in one word."),
         ChatMessage("user", "banana"),
         ChatMessage("assistant", "yellow"),
-        ChatMessage("user", second[0]),
-        ChatMessage("assistant", second[1]),
+        ChatMessage("user", "cherry"),
+        ChatMessage("assistant", "red"),
         ChatMessage("user", question),
     ]
-    return ChatRequest(tuple(turns), sampling=Sampling(max_tokens=4), shared_messages=shared)
+    return ChatRequest(tuple(turns), sampling=Sampling(max_tokens=4), shared_messages=3)
 
 
 @pytest.fixture
@@ -406,29 +403,6 @@ def test_embedded_prefix_state_on_disk_answers_like_evaluating_it(prefix_backend
 
 
 @pytest.mark.llm
-def test_embedded_keeps_each_shared_prefix_and_starts_from_the_longest_one_kept(prefix_backend, tmp_path):
-    """A request marking two shared prefixes (the examples; then those and its own repeated example, as
-    a generation chat does) keeps both on disk. A later process starts from the longest one it has: a
-    request sharing only the first starts from the first, and either answers as evaluating it would."""
-    both = (3, 5)
-    first = prefix_backend.chat(_small_request("lime", shared=both)).text
-    states = sorted(tmp_path.glob("*.state"), key=lambda p: p.stat().st_size)
-    assert len(states) == 2
-    prefix_backend.prefix_dir = None
-    prefix_backend.forget()
-    plum = prefix_backend.chat(_small_request("lime", ("plum", "purple"), both)).text
-    prefix_backend.prefix_dir = tmp_path
-    prefix_backend.forget()
-    hits = prefix_backend.prefix_hits
-    assert prefix_backend.chat(_small_request("lime", ("plum", "purple"), both)).text == plum
-    assert prefix_backend.prefix_hits == hits + 1  # the examples' state, the shorter one
-    states[0].unlink()
-    prefix_backend.forget()
-    assert prefix_backend.chat(_small_request("lime", shared=both)).text == first
-    assert prefix_backend.prefix_hits == hits + 2  # the longer one: the shorter is gone
-
-
-@pytest.mark.llm
 def test_embedded_answer_does_not_depend_on_the_requests_before_it(embedded_backend):
     """Every prompt is evaluated in the same segments, so a request answered from an empty context, after
     a request sharing part of its prompt, or after an unrelated one, gets the same tokens."""
@@ -451,7 +425,7 @@ def test_embedded_prefix_states_beyond_the_bound_are_dropped_oldest_first(prefix
     other = ChatRequest(
         (ChatMessage("system", "Name the fruit's colour."), *other.messages[1:]),
         other.sampling,
-        shared_messages=(3,),
+        shared_messages=3,
     )
     prefix_backend.chat(other)
     (kept,) = tmp_path.glob("*.state")
@@ -463,14 +437,15 @@ def test_the_shared_prefix_ends_before_the_repeated_own_example():
     question follow it. The one-message layout marks nothing."""
     gen = ConditionGenerator(Replay([]), prompt_version=TWO_CHATS)
     task = parse_task("grasp cup")
-    messages, (shared, own) = gen.layout("spatial", task)
-    assert shared == 1 + 2 * len(PRIMITIVES) and own == shared + 2
+    messages, shared = gen.layout("spatial", task)
+    assert shared == 1 + 2 * len(PRIMITIVES)
     assert messages[shared].content == "Task name: grasp A"
-    assert len(messages) == own + 1
+    assert len(messages) == shared + 3
     other, other_shared = gen.layout("spatial", parse_task("open box"))
-    assert other_shared == (shared, own)
-    assert other[:shared] == messages[:shared] and other[shared] != messages[shared]
-    assert gen.layout("spatial", task, exclude=["grasp"])[1] == ()
+    assert (
+        other_shared == shared and other[:shared] == messages[:shared] and other[shared] != messages[shared]
+    )
+    assert gen.layout("spatial", task, exclude=["grasp"])[1] == 0
 
 
 @pytest.mark.llm

@@ -406,7 +406,7 @@ class ChatTranscript:
 
     chat: Chat
     messages: tuple[ChatMessage, ...]
-    shared_messages: tuple[int, ...] = ()
+    shared_messages: int = 0
     answers: list[str] = field(default_factory=list)
     errors: list[str] = field(default_factory=list)
     cached: bool = True
@@ -470,7 +470,7 @@ class ConditionGenerator:
 
     def layout(
         self, chat: Chat, task: ParsedTask, exclude: Iterable[str] = (), order_seed: int | None = None
-    ) -> tuple[tuple[ChatMessage, ...], tuple[int, ...]]:
+    ) -> tuple[tuple[ChatMessage, ...], int]:
         """The opening messages of one chat for ``task``; chain-of-thought (Listing 4) when the task's
         primitive is excluded, its examples then with their worked reasoning if the prompt version has it
         (:func:`load_reasons`).
@@ -481,11 +481,9 @@ class ConditionGenerator:
         the question is the last user turn, so the model answers as it has answered before. The examples'
         order follows :attr:`example_order`.
 
-        Returns the messages and the counts of leading messages that many prompts share: the system
-        message and the examples, which every prompt of this chat shares whatever its task; then those
-        and the repeated own example, which every task of the primitive shares (none in the one-message
-        layout). These are the prefixes a backend may keep
-        (:attr:`~taskcond.llm.base.ChatRequest.shared_messages`).
+        Returns the messages and how many of them lead every prompt of this chat, task primitive aside
+        (the system message and the examples before the repeated own example; 0 in the one-message
+        layout): the prefix a backend may keep (:attr:`~taskcond.llm.base.ChatRequest.shared_messages`).
         """
         excluded = set(exclude)
         if chat == "code":
@@ -499,14 +497,13 @@ class ConditionGenerator:
         nearest = task.primitive if order == "similar" else None
         reasons = load_reasons(chat, self.prompt_version) if cot else None
         examples = example_turns(chat, excluded, order_seed, nearest, reasons)
-        shared = (1 + 2 * len(examples),)
+        shared = 1 + 2 * len(examples)
         if order == "recall":
             own = f"Task name: {letter_example(task.primitive.id).task_name}"
             examples += [turn for turn in examples if turn[0] == own]
-            shared += (1 + 2 * len(examples),)
         if one_message:
             text = template.substitute(examples=_as_text(examples), task=task.letter_name)
-            return (ChatMessage("user", text),), ()
+            return (ChatMessage("user", text),), 0
         turns = [ChatMessage("system", template.template.strip())]
         for name, answer in examples:
             turns += [ChatMessage("user", name), ChatMessage("assistant", answer)]
@@ -514,24 +511,23 @@ class ConditionGenerator:
 
     def _code_layout(
         self, task: ParsedTask, excluded: set[str], order_seed: int | None
-    ) -> tuple[tuple[ChatMessage, ...], tuple[int, ...]]:
+    ) -> tuple[tuple[ChatMessage, ...], int]:
         """The code form's chat (:meth:`layout`): the system message, each example's signature and body as
         a user and an assistant turn, the task's signature last. Where the task's own primitive is shown
         and the order is ``"recall"`` (``"auto"`` here), its example is repeated right before the
-        question; the prompts then share everything before the repeat, and a primitive's tasks everything
-        before the question. A left-out primitive has no example to repeat: its prompt is the same
-        whatever the order setting, and its tasks share everything before the question."""
+        question; the prompts then share everything before the repeat. A left-out primitive has no
+        example to repeat: its prompt is the same whatever the order setting."""
         turns = [ChatMessage("system", load_prompt("code", self.prompt_version).template.strip())]
         examples = code_turns(task, excluded, order_seed)
         for name, answer in examples:
             turns += [ChatMessage("user", name), ChatMessage("assistant", answer)]
-        shared = (len(turns),)
+        shared = 0
         if self.example_order in ("auto", "recall") and task.primitive.id not in excluded:
             own = code_form.signature(parse_task(example_conditions()[task.primitive.id].task_name))
+            shared = len(turns)
             for name, answer in examples:
                 if name == own:
                     turns += [ChatMessage("user", name), ChatMessage("assistant", answer)]
-            shared += (len(turns),)
         return (*turns, ChatMessage("user", code_form.signature(task))), shared
 
     def prompt(

@@ -59,18 +59,17 @@ class ChatRequest:
         grammar: an optional GBNF grammar the answer must follow (used by backends that support
             constrained decoding; others ignore it and rely on validation).
         stop: strings that end the answer.
-        shared_messages: message counts, ascending, at which a prefix of the conversation ends that many
-            requests share (the job, vocabulary and examples of a prompt; then those and the task's own
-            example repeated): hints that let a backend keep each evaluated prefix across runs (the
-            embedded backend's prefix states). They never change the answer, so they are not part of the
-            cache key.
+        shared_messages: how many leading messages many requests share (the job, vocabulary and
+            examples of a prompt): a hint that lets a backend keep their evaluated prefix across runs (the
+            embedded backend's prefix cache). It never changes the answer, so it is not part of the cache
+            key.
     """
 
     messages: tuple[ChatMessage, ...]
     sampling: Sampling = field(default_factory=Sampling)
     grammar: str | None = None
     stop: tuple[str, ...] = ()
-    shared_messages: tuple[int, ...] = ()
+    shared_messages: int = 0
 
     def key_material(self) -> dict:
         """Everything that determines the answer, for the response cache key."""

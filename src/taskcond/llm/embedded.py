@@ -5,10 +5,10 @@ the response cache, so fully cached runs never pay the load. Shared prompt prefi
 keeps a few llama.cpp contexts over the one memory-mapped model, and sends each request to the context
 whose last prompt shares the longest prefix with it, so the two chats of the condition generator (each
 with its long job-vocabulary-examples prefix) never evict each other and a new task name only evaluates
-its own few tokens. With a prefix directory, each evaluated prefix a request marks as shared
-(:attr:`~taskcond.llm.base.ChatRequest.shared_messages`) is also kept on disk as a llama.cpp state, and a
-request starts from the longest one kept, so a new process does not evaluate hundreds of tokens again.
-Answers are constrained by a GBNF grammar when the request carries one.
+its own few tokens. With a prefix directory, the evaluated prefix a request marks as shared
+(:attr:`~taskcond.llm.base.ChatRequest.shared_messages`) is also kept on disk as a llama.cpp state, so a
+new process starts from it instead of evaluating hundreds of tokens again. Answers are constrained by a
+GBNF grammar when the request carries one.
 
 A prompt is always evaluated in the same pieces, whatever was evaluated before it: its tokens are cut
 into segments before every message but an answer (a user turn and its answer are one segment) and after every
@@ -88,16 +88,6 @@ def segment_starts(
         if tokens[i - 1] == im_start:
             after_user = tokens[i] == user
     return starts
-
-
-def shared_prefixes(tokens: Sequence[int], im_start: int, shared: Sequence[int], last: int) -> list[int]:
-    """Token counts of the prompt's shared prefixes, ascending: for each message count in ``shared``
-    (:attr:`~taskcond.llm.base.ChatRequest.shared_messages`), where that message ends, i.e. where the next
-    ``<|im_start|>`` (token ``im_start``) begins; only prefixes ending at or before ``last``, the start of
-    the segment the answering request evaluates."""
-    message_starts = [i for i, t in enumerate(tokens) if t == im_start]
-    ends = {message_starts[k] for k in shared if 0 < k < len(message_starts)}
-    return sorted(e for e in ends if 0 < e <= last)
 
 
 def read_state(path: Path) -> bytes | None:
@@ -305,30 +295,29 @@ class EmbeddedBackend:
         """Where the prompt's segments start (:func:`segment_starts`)."""
         return segment_starts(tokens, self._im_start, self._user, lambda t: self._ends_blank_line(llm, t))
 
-    def _prepare(self, slot: int, tokens: list[int], starts: list[int], shared: tuple[int, ...]) -> None:
+    def _prepare(self, slot: int, tokens: list[int], starts: list[int], shared_messages: int) -> None:
         """Evaluate every segment of the prompt but the last (which the chat completion evaluates), from
-        the longest prefix the context holds or, for a shared prefix (``shared``: message counts,
-        :attr:`~taskcond.llm.base.ChatRequest.shared_messages`), the prefix directory holds."""
+        the longest prefix the context holds or, for a shared prefix, the prefix directory holds."""
         llm = self._contexts[slot]
         held = min(self._evaluated[slot], llm.n_tokens)
         same = _common_prefix_length(llm.input_ids[:held].tolist(), tokens)
         last = starts[-1]
         reuse = max(s for s in starts if s <= min(same, last))
-        hints = shared_prefixes(tokens, self._im_start, shared, last) if self.prefix_dir is not None else []
-        for hint in reversed(hints):
-            if reuse >= hint:
-                break
+        message_starts = [i for i, t in enumerate(tokens) if t == self._im_start]
+        hint = message_starts[shared_messages] if 0 < shared_messages < len(message_starts) else 0
+        hint = hint if 0 < hint <= last and self.prefix_dir is not None else 0
+        if reuse < hint:
             if self._read_state(llm, tokens[:hint]):
                 reuse = hint
                 self.prefix_hits += 1
-                break
-            reuse = min(reuse, llm.n_tokens)  # a state llama.cpp refused leaves the context empty
+            else:  # a state llama.cpp refused leaves the context empty
+                reuse = min(reuse, llm.n_tokens)
         llm.n_tokens = reuse
         for a, b in itertools.pairwise(starts):
             if a >= reuse:
                 llm.eval(tokens[a:b])
-                if b in hints:
-                    self._write_state(llm, tokens[:b])
+                if b == hint:
+                    self._write_state(llm, tokens[:hint])
         # the last segment is evaluated by the caller, in one piece too; what it generates is not kept
         self._evaluated[slot] = len(tokens)
 

@@ -13,7 +13,7 @@ each segment is a completion request for the prompt up to the segment's end with
 slot the server holds exactly the prompt's earlier segments in, so an answer does not depend on the
 requests before it. The server's prompt cache keeps a slot's evaluated tokens between requests (two slots,
 one per conversation, as the native backend's two contexts); llama.cpp's slot save and restore keep the
-shared prefixes of a request on disk for the next process (the native backend's prefix states). Greedy
+shared prefix of a request on disk for the next process (the native backend's prefix states). Greedy
 answers without a grammar are decoded with llama.cpp's n-gram speculation on the prompt and the answer so
 far (``ngram-mod``: a hashed map from the last :data:`DRAFT_MATCH` tokens to the next, drafting
 :data:`DRAFT_MIN` to :data:`DRAFT_MAX` tokens and fewer after drafts that were mostly rejected; the same idea
@@ -49,7 +49,6 @@ from taskcond.llm.embedded import (
     prune_states,
     read_state,
     segment_starts,
-    shared_prefixes,
     write_state,
 )
 from taskcond.llm.models import DEFAULT_EMBEDDED_MODEL, get_embedded_model, model_path
@@ -336,22 +335,22 @@ class XLlamaCppBackend:
             return
         prune_states(self.prefix_dir, "*.state", self.prefix_bytes, keep=target)
 
-    def _prepare(self, slot: int, tokens: list[int], starts: list[int], shared: tuple[int, ...]) -> None:
+    def _prepare(self, slot: int, tokens: list[int], starts: list[int], shared_messages: int) -> None:
         """Have the slot hold every segment of the prompt but the last, evaluated segment by segment from
-        the longest segment-aligned prefix it holds or, for a shared prefix (``shared``: message counts,
-        :attr:`~taskcond.llm.base.ChatRequest.shared_messages`), the prefix directory holds; the last
-        segment is evaluated by the request that answers."""
+        the longest segment-aligned prefix it holds or, for a shared prefix, the prefix directory holds;
+        the last segment is evaluated by the request that answers."""
+        held = self._held[slot]
         last = starts[-1]
-        reuse = max(s for s in starts if s <= min(_common_prefix_length(self._held[slot], tokens), last))
-        hints = shared_prefixes(tokens, self._im_start, shared, last) if self.prefix_dir is not None else []
-        for hint in reversed(hints):
-            if reuse >= hint:
-                break
+        same = _common_prefix_length(held, tokens)
+        reuse = max(s for s in starts if s <= min(same, last))
+        message_starts = [i for i, t in enumerate(tokens) if t == self._im_start]
+        hint = message_starts[shared_messages] if 0 < shared_messages < len(message_starts) else 0
+        hint = hint if 0 < hint <= last and self.prefix_dir is not None else 0
+        if reuse < hint:
             if self._restore(slot, tokens[:hint]):
                 reuse = hint
                 self.prefix_hits += 1
-                break
-            if not self._held[slot]:  # a state the server refused empties the slot
+            elif not self._held[slot]:  # a state the server refused empties the slot
                 reuse = 0
         if reuse < len(self._held[slot]) or not self._exact[slot]:
             # the slot must hold tokens[:reuse] and nothing after it, else the server would reuse more
@@ -366,7 +365,7 @@ class XLlamaCppBackend:
         for b in starts[1:]:
             if reuse < b <= last:
                 self._evaluate(slot, tokens[:b])
-                if b in hints:
+                if b == hint:
                     self._save(slot, tokens[:b])
 
     def chat(self, request: ChatRequest) -> ChatResponse:
