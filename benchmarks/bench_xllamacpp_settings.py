@@ -5,7 +5,8 @@ shared machine.
 Reports each setting's Table II accuracy, its median seconds per condition, and how many answers equal the
 first setting's; ``--tokens`` also prints, per condition of the first setting, the tokens evaluated before
 the answering requests (the repeated own example and the tokens that cut a slot back), the question's
-tokens evaluated by the answering requests, and the tokens generated, drafted and accepted.
+tokens evaluated by the answering requests, and the tokens generated, drafted and accepted, each with the
+server's milliseconds.
 
     .venv/bin/python benchmarks/bench_xllamacpp_settings.py [--settings base fa_off poll0] [--trials 1]
         [--mode generation] [--tokens] [--prompt-versions v7 v8]
@@ -72,6 +73,9 @@ class Requests:
             "generated": sum(t.get("predicted_n", 0) for t in answers),
             "drafted": sum(t.get("draft_n", 0) for t in answers),
             "accepted": sum(t.get("draft_n_accepted", 0) for t in answers),
+            "evaluated_ms": round(sum(t.get("prompt_ms", 0) for t in evals)),
+            "question_ms": round(sum(t.get("prompt_ms", 0) for t in answers)),
+            "generated_ms": round(sum(t.get("predicted_ms", 0) for t in answers)),
         }
 
 
