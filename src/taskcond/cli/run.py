@@ -131,7 +131,8 @@ def run(
         fail(f"cannot do {plan.label!r}: {result.reason}; nothing moved (trace: {trace_path})")
     outcome = "succeeded" if result.success else f"FAILED ({result.reason})"
     if result.fallen:  # the goal may hold while the arm knocked a neighbour over: say so
-        outcome += f", and {', '.join(result.fallen)} lie knocked over at the end"
+        verb = "lies" if len(result.fallen) == 1 else "lie"
+        outcome += f", and {', '.join(result.fallen)} {verb} knocked over at the end"
     typer.echo(
         f"{plan.label}: {outcome}; {result.sim_seconds:.1f} s simulated, {result.wall_seconds:.1f} s wall"
     )
