@@ -1,15 +1,16 @@
-"""xllamacpp server settings and prompt versions side by side: one backend per setting and version in one
-process, uncached, alternating per condition (who goes first rotates), so that all see the same load on a
-shared machine.
+"""xllamacpp server settings, prompt versions and models side by side: one backend per setting, version and
+model in one process, uncached, alternating per condition (who goes first rotates), so that all see the
+same load on a shared machine.
 
 Reports each setting's Table II accuracy, its median seconds per condition, and how many answers equal the
-first setting's; ``--tokens`` also prints, per condition of the first setting, the tokens evaluated before
+first setting's; ``--tokens`` also prints, per condition of each setting, the tokens evaluated before
 the answering requests (the repeated own example and the tokens that cut a slot back), the question's
 tokens evaluated by the answering requests, and the tokens generated, drafted and accepted, each with the
-server's milliseconds.
+server's milliseconds, and each setting's medians of them.
 
     .venv/bin/python benchmarks/bench_xllamacpp_settings.py [--settings base fa_off poll0] [--trials 1]
         [--mode generation] [--tokens] [--prompt-versions v7 v8]
+        [--models qwen2.5-coder-0.5b qwen2.5-coder-1.5b]
 """
 
 from __future__ import annotations
@@ -25,6 +26,7 @@ import xllamacpp
 
 from taskcond.evaluation import score_trial
 from taskcond.generator import PROMPT_VERSION, ConditionGenerator, prompt_versions
+from taskcond.llm.models import DEFAULT_EMBEDDED_MODEL, EMBEDDED_MODELS
 from taskcond.llm.xllamacpp_backend import XLlamaCppBackend
 from taskcond.primitives import PRIMITIVES
 
@@ -79,8 +81,8 @@ class Requests:
         }
 
 
-def backend_with(setting: str) -> XLlamaCppBackend:
-    """A started backend whose server was made with ``setting`` applied to its parameters."""
+def backend_with(setting: str, model: str = DEFAULT_EMBEDDED_MODEL) -> XLlamaCppBackend:
+    """A started backend of ``model`` whose server was made with ``setting`` applied to its parameters."""
     real = xllamacpp.Server
 
     def server(p: Any) -> Any:
@@ -89,7 +91,7 @@ def backend_with(setting: str) -> XLlamaCppBackend:
 
     xllamacpp.Server = server
     try:
-        backend = XLlamaCppBackend()
+        backend = XLlamaCppBackend(model)
         backend._load()
     finally:
         xllamacpp.Server = real
@@ -101,28 +103,32 @@ def main() -> None:
     ap.add_argument("--settings", nargs="+", choices=list(SETTINGS), default=["base", "fa_off", "poll0"])
     ap.add_argument("--trials", type=int, default=1)
     ap.add_argument("--mode", default="generation", choices=["generation", "generalization"])
-    ap.add_argument("--tokens", action="store_true", help="token counts of the first setting's conditions")
+    ap.add_argument("--tokens", action="store_true", help="token counts per condition")
     ap.add_argument("--prompt-versions", nargs="+", choices=prompt_versions(), default=[PROMPT_VERSION])
+    ap.add_argument("--models", nargs="+", choices=list(EMBEDDED_MODELS), default=[DEFAULT_EMBEDDED_MODEL])
     args = ap.parse_args()
-    units = [(s, v) for s in args.settings for v in args.prompt_versions]
-    names = [f"{s} {v}" if len(args.prompt_versions) > 1 else s for s, v in units]
-    backends = {n: backend_with(s) for n, (s, _) in zip(names, units, strict=True)}
-    requests = Requests()
-    requests.wrap(backends[names[0]])
-    generators = {
-        n: ConditionGenerator(backends[n], prompt_version=v) for n, (_, v) in zip(names, units, strict=True)
-    }
+    axes = (args.settings, args.prompt_versions, args.models)
+    units = [(s, v, m) for s in args.settings for v in args.prompt_versions for m in args.models]
+    names = [" ".join(x for x, axis in zip(u, axes, strict=True) if len(axis) > 1) or u[0] for u in units]
+    backends = {n: backend_with(s, m) for n, (s, _, m) in zip(names, units, strict=True)}
+    requests = {n: Requests() for n in names}
+    for n in names:
+        requests[n].wrap(backends[n])
+    versions = {n: v for n, (_, v, _) in zip(names, units, strict=True)}
+    generators = {n: ConditionGenerator(backends[n], prompt_version=versions[n]) for n in names}
     pids = [p for p in PRIMITIVES if not PRIMITIVES[p].declared]
     results: dict[str, list] = {n: [] for n in names}
+    tokens: dict[str, list[dict[str, int]]] = {n: [] for n in names}
     for k, (trial, pid) in enumerate((t, p) for t in range(args.trials) for p in pids):
         row: dict[str, Any] = {"trial": trial, "primitive": pid}
         for n in names[k % len(names) :] + names[: k % len(names)]:
-            requests.log.clear()
+            requests[n].log.clear()
             outcome = score_trial(generators[n], pid, args.mode, trial)
             results[n].append(outcome)
             row[n] = [outcome.correct, round(outcome.seconds, 2)]
-            if args.tokens and n == names[0]:
-                row["tokens"] = requests.summary()
+            if args.tokens:
+                tokens[n].append(requests[n].summary())
+                row[f"tokens {n}"] = tokens[n][-1]
         print(json.dumps(row), flush=True)
     print("| setting | correct | median s per condition | median s without the first | same answers |")
     print("|---|---|---|---|---|")
@@ -134,6 +140,9 @@ def main() -> None:
             f"| {n} | {correct}/{len(secs)} | {statistics.median(secs):.2f} | "
             f"{statistics.median(secs[1:] or secs):.2f} | {same}/{len(secs)} |"
         )
+    for n in names if args.tokens else ():
+        later = tokens[n][1:] or tokens[n]  # the first condition also evaluates the shared prefix
+        print(n, "median without the first:", {k: statistics.median(t[k] for t in later) for k in later[0]})
 
 
 if __name__ == "__main__":
