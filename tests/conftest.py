@@ -84,13 +84,26 @@ def embedded_backend(_project_only):
     return backend
 
 
+@pytest.fixture(scope="session")
+def small_backend(_project_only):
+    """The real embedded backend of the default's generation conditions (the 0.5B model,
+    :data:`taskcond.llm.models.MODE_MODELS`), as :func:`embedded_backend` is the default model's."""
+    from taskcond.llm.config import BACKENDS, BackendKind, LLMConfig
+
+    backend = BACKENDS[BackendKind.EMBEDDED].build(LLMConfig.load(None).for_mode("generation"))
+    backend._load()
+    return backend
+
+
 @pytest.fixture(autouse=True)
 def _one_model(request: pytest.FixtureRequest) -> None:
-    """A test marked ``llm`` holds the session's :func:`embedded_backend`, so that the command line it may
-    drive in-process gets that loaded model instead of loading another (one model per session; the
-    backend is shared while held, :func:`taskcond.llm.config.embedded_backend`)."""
+    """A test marked ``llm`` holds the session's :func:`embedded_backend` and :func:`small_backend`, so
+    that the command line it may drive in-process gets those loaded models instead of loading others (one
+    load per model and session; a backend is shared while held,
+    :func:`taskcond.llm.config.embedded_backend`)."""
     if request.node.get_closest_marker("llm"):
         request.getfixturevalue("embedded_backend")
+        request.getfixturevalue("small_backend")
 
 
 @pytest.fixture(scope="session")

@@ -13,6 +13,7 @@ from typer.testing import CliRunner
 from taskcond.cli import app, main
 from taskcond.conditions import TaskCondition
 from taskcond.generator import ConditionGenerator
+from taskcond.llm.config import LLMConfig
 from taskcond.primitives import PRIMITIVES
 
 runner = CliRunner()
@@ -152,10 +153,11 @@ def test_tasks_text_shows_the_patterns():
 
 
 @pytest.mark.llm
-def test_conditions_from_the_cache_need_no_model(cached_llm):
+def test_conditions_from_the_cache_need_no_model():
     """A repeated run is answered from the on-disk cache (the session's, where the model's answer was put):
     identical, and the model is never loaded."""
-    expected = ConditionGenerator(cached_llm).generate("close box")
+    expected = ConditionGenerator.from_config(LLMConfig.load(None)).generate("close box")
+    assert expected.model == "embedded:qwen2.5-coder-0.5b"
     result = runner.invoke(app, ["conditions", "close box", "--json"])
     assert result.exit_code == 0, result.output
     assert TaskCondition.from_json(result.stdout) == expected.condition

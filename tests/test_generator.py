@@ -14,7 +14,9 @@ from taskcond.examples import reference_condition
 from taskcond.generator import ConditionGenerator, answer_grammar, examples_block, parse_answer
 from taskcond.llm.base import ChatMessage, ChatRequest, LLMError, Sampling
 from taskcond.llm.cache import CachedBackend
+from taskcond.llm.config import LLMConfig, backend_label
 from taskcond.llm.embedded import PREFIX_CACHE_BYTES, EmbeddedBackend
+from taskcond.llm.models import DEFAULT_EMBEDDED_MODEL, EMBEDDED_MODELS, MODE_MODELS
 from taskcond.primitives import PRIMITIVES, parse_task
 
 TWO_CHATS = "v7"
@@ -207,10 +209,42 @@ def test_embedded_free_answer_falls_back_to_the_grammar(embedded_backend):
 
 
 @pytest.mark.llm
-def test_embedded_generation_of_the_papers_listing_1(cached_llm):
-    result = ConditionGenerator(cached_llm).generate("move bottle into box")
-    assert result.mode == "generation"
-    assert result.condition.matches(reference_condition(parse_task("move bottle into box")))
+def test_the_default_generates_with_the_small_model_and_generalizes_with_the_large_one(
+    embedded_backend, small_backend
+):
+    """The command line's default generator asks the paper's Listing 1 task of the 0.5B and a left-out
+    primitive of the 1.5B, each answer right (Table II's criterion) and cached under its own model."""
+    gen = ConditionGenerator.from_config(LLMConfig.load(None))
+    assert gen.generation_backend.backend is small_backend and gen.backend.backend is embedded_backend
+    seen = gen.generate("move bottle into box")
+    left_out = gen.generate("release cup", exclude=["release"])
+    assert (seen.mode, seen.model) == ("generation", "embedded:qwen2.5-coder-0.5b")
+    assert (left_out.mode, left_out.model) == ("generalization", "embedded:qwen2.5-coder-1.5b")
+    for result in (seen, left_out):
+        reference = reference_condition(parse_task(result.condition.task_name))
+        assert result.condition.matches(reference), result.condition.to_text()
+    again = ConditionGenerator.from_config(LLMConfig.load("embedded:qwen2.5-coder-1.5b"))
+    assert again.generation_backend is None and again.model == "embedded:qwen2.5-coder-1.5b"
+    request = ChatRequest(seen.transcripts[0].messages)
+    assert again.backend.key(request) != gen.generation_backend.key(request)  # nothing reused across models
+
+
+def test_each_mode_has_its_model_and_results_name_both():
+    """One place maps a mode to its model (:meth:`LLMConfig.for_mode`): the default's two, a chosen model for
+    both; the label of the default names each mode's model and hash."""
+    default = LLMConfig.load(None)
+    assert default.model is None
+    assert {m: default.for_mode(m).model for m in ("generation", "generalization")} == MODE_MODELS
+    assert MODE_MODELS == {"generation": "qwen2.5-coder-0.5b", "generalization": DEFAULT_EMBEDDED_MODEL}
+    for spec in ("embedded:qwen2.5-coder-0.5b", "openai:m"):
+        chosen = LLMConfig.load(spec)
+        assert chosen.for_mode("generation") == chosen.for_mode("generalization") == chosen
+    label, digest = backend_label(default)
+    assert label.startswith("embedded:generation=qwen2.5-coder-0.5b,generalization=qwen2.5-coder-1.5b@")
+    assert digest == ",".join(EMBEDDED_MODELS[m].sha256[:16] for m in MODE_MODELS.values())
+    assert backend_label(LLMConfig.load("embedded:qwen2.5-coder-0.5b"))[0].startswith(
+        "embedded:qwen2.5-coder-0.5b@"
+    )
 
 
 def test_similar_order_puts_the_most_alike_examples_next_to_the_question():

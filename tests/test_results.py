@@ -32,7 +32,7 @@ def test_equal_configurations_have_equal_digests_and_differences_are_named() -> 
     assert config(execution={"budget": 60.0}).differences(changed.to_dict()) == [
         "execution.budget: 30.0 (file) vs 60.0 (now)"
     ]
-    assert config().to_dict()["llm_model_hash"] == "cc324af070c2ecbf"
+    assert config().to_dict()["llm_model_hash"] == "1d9614638d18024d,cc324af070c2ecbf"  # 0.5B, 1.5B
     assert code_version()  # a git describe here, a package version elsewhere
 
 

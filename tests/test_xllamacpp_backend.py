@@ -53,8 +53,9 @@ def test_answers_and_results_name_the_runtime(tmp_path, monkeypatch):
     for runtime in ("xllamacpp", "llama-cpp-python"):
         monkeypatch.setenv("TASKCOND_EMBEDDED_RUNTIME", runtime)
         labels[runtime] = llm_fields("embedded")["llm"]
-    assert labels["xllamacpp"].startswith("embedded:qwen2.5-coder-1.5b@xllamacpp-")
-    assert labels["llama-cpp-python"].startswith("embedded:qwen2.5-coder-1.5b@llama-cpp-python")
+    models = "embedded:generation=qwen2.5-coder-0.5b,generalization=qwen2.5-coder-1.5b"
+    assert labels["xllamacpp"].startswith(f"{models}@xllamacpp-")
+    assert labels["llama-cpp-python"].startswith(f"{models}@llama-cpp-python")
     monkeypatch.setenv("TASKCOND_EMBEDDED_RUNTIME", "llama")
     with pytest.raises(
         LLMError, match="unknown embedded runtime 'llama'; valid: llama-cpp-python, xllamacpp"

@@ -183,7 +183,7 @@ def evaluate_conditions(
     """
     pids = list(primitives or (p for p in PRIMITIVES if not PRIMITIVES[p].declared))
     result = ConditionEvaluation(
-        model=f"{generator.backend.name}:{generator.backend.model}",
+        model=generator.model,
         trials=trials,
         generation={p: PrimitiveScore(p) for p in pids},
         generalization={p: PrimitiveScore(p) for p in pids},

@@ -36,7 +36,7 @@ from dataclasses import dataclass, field
 from functools import cache
 from importlib import resources
 from string import Template
-from typing import Literal
+from typing import TYPE_CHECKING, Any, Literal, get_args
 
 from taskcond import code_form
 from taskcond.conditions import (
@@ -52,7 +52,11 @@ from taskcond.conditions import (
 )
 from taskcond.examples import example_conditions, letter_example
 from taskcond.llm.base import ChatBackend, ChatMessage, ChatRequest, LLMError, Sampling
+from taskcond.llm.models import Mode
 from taskcond.primitives import LETTERS, PRIMITIVES, ParsedTask, Primitive, get_primitive, parse_task
+
+if TYPE_CHECKING:
+    from taskcond.llm.config import LLMConfig
 
 Chat = Literal["spatial", "state", "code"]
 CHATS: tuple[Chat, ...] = ("spatial", "state")
@@ -414,13 +418,15 @@ class ChatTranscript:
 
 @dataclass
 class GenerationResult:
-    """A generated task condition with how it came about."""
+    """A generated task condition with how it came about: ``model`` is ``BACKEND:MODEL`` of the backend
+    asked (:meth:`ConditionGenerator.backend_for`)."""
 
     condition: TaskCondition
-    mode: Literal["generation", "generalization"]
+    mode: Mode
     excluded: tuple[str, ...]
     transcripts: list[ChatTranscript]
     seconds: float
+    model: str
 
     @property
     def cached(self) -> bool:
@@ -437,6 +443,8 @@ class ConditionGenerator:
 
     Attributes:
         backend: any :class:`~taskcond.llm.base.ChatBackend`.
+        generation_backend: the backend of generation conditions (the task's primitive has its example in
+            the prompt), None: :attr:`backend` (:meth:`backend_for`, :meth:`from_config`).
         max_retries: how often a chat is asked again after an invalid answer.
         samples: self-consistency samples per chat (1: a single greedy answer).
         temperature: sampling temperature when ``samples > 1``.
@@ -455,12 +463,38 @@ class ConditionGenerator:
     """
 
     backend: ChatBackend
+    generation_backend: ChatBackend | None = None
     max_retries: int = 2
     samples: int = 1
     temperature: float = 0.7
     grammar: GrammarUse = "fallback"
     prompt_version: str = PROMPT_VERSION
     example_order: ExampleOrder = "auto"
+
+    @classmethod
+    def from_config(cls, config: LLMConfig, **settings: Any) -> ConditionGenerator:
+        """The generator of ``config``'s model for each mode (:meth:`LLMConfig.for_mode`), each backend
+        loaded on its first request; ``settings`` are the other attributes."""
+        from taskcond.llm.config import make_backend
+
+        general, generation = config.for_mode("generalization"), config.for_mode("generation")
+        other = make_backend(generation) if generation != general else None
+        return cls(make_backend(general), other, **settings)
+
+    def backend_for(self, mode: Mode) -> ChatBackend:
+        """The backend that answers ``mode``'s conditions."""
+        return (self.generation_backend or self.backend) if mode == "generation" else self.backend
+
+    @property
+    def model(self) -> str:
+        """``BACKEND:MODEL`` of the backend, or of each mode's where they differ
+        (``generation=BACKEND:MODEL,generalization=BACKEND:MODEL``)."""
+        names = {
+            mode: f"{self.backend_for(mode).name}:{self.backend_for(mode).model}" for mode in get_args(Mode)
+        }
+        if len(set(names.values())) == 1:
+            return names["generation"]
+        return ",".join(f"{mode}={name}" for mode, name in names.items())
 
     def messages(
         self, chat: Chat, task: ParsedTask, exclude: Iterable[str] = (), order_seed: int | None = None
@@ -538,7 +572,13 @@ class ConditionGenerator:
         return "\n\n".join(m.content for m in self.messages(chat, task, exclude, order_seed))
 
     def _chat(
-        self, chat: Chat, task: ParsedTask, seed: int, temperature: float, transcript: ChatTranscript
+        self,
+        backend: ChatBackend,
+        chat: Chat,
+        task: ParsedTask,
+        seed: int,
+        temperature: float,
+        transcript: ChatTranscript,
     ) -> TaskCondition:
         messages = list(transcript.messages)
         code = chat == "code"
@@ -560,7 +600,7 @@ class ConditionGenerator:
                 grammar=grammar if constrained else None,
                 shared_messages=transcript.shared_messages,
             )
-            response = self.backend.chat(request)
+            response = backend.chat(request)
             transcript.cached &= response.cached
             transcript.answers.append(response.text)
             try:
@@ -579,13 +619,18 @@ class ConditionGenerator:
             lines = _after_reasoning(lines)
         last = " ".join(" ".join(lines).split())[:120]
         raise LLMError(
-            f"{self.backend.model} gave no valid {chat} answer for {task.name!r} in {self.max_retries + 1} "
+            f"{backend.model} gave no valid {chat} answer for {task.name!r} in {self.max_retries + 1} "
             f"attempts; last answer {last!r}: {transcript.errors[-1]}",
-            backend=self.backend.name,
+            backend=backend.name,
         )
 
     def _code_votes(
-        self, task: ParsedTask, excluded: tuple[str, ...], order_seed: int | None, seed: int
+        self,
+        backend: ChatBackend,
+        task: ParsedTask,
+        excluded: tuple[str, ...],
+        order_seed: int | None,
+        seed: int,
     ) -> tuple[TaskCondition, list[ChatTranscript]]:
         """The code form's answer for a left-out primitive: one greedy answer per example order of
         :func:`order_seeds` (:attr:`samples` of them), and with several, every condition more than half
@@ -597,7 +642,7 @@ class ConditionGenerator:
             transcript = ChatTranscript("code", *self.layout("code", task, excluded, order))
             transcripts.append(transcript)
             try:
-                answers.append(self._chat("code", task, seed, 0.0, transcript))
+                answers.append(self._chat(backend, "code", task, seed, 0.0, transcript))
             except LLMError as exc:
                 error = exc
         if not answers:
@@ -632,24 +677,25 @@ class ConditionGenerator:
         excluded = tuple(get_primitive(pid).id for pid in exclude)
         if task.primitive.id not in example_conditions() and task.primitive.id not in excluded:
             excluded += (task.primitive.id,)  # a declared primitive has no example: always generalized
-        mode: Literal["generation", "generalization"] = (
-            "generalization" if task.primitive.id in excluded else "generation"
-        )
+        mode: Mode = "generalization" if task.primitive.id in excluded else "generation"
+        backend = self.backend_for(mode)
+        model = f"{backend.name}:{backend.model}"
         if uses_code_form(self.prompt_version) and (
             mode == "generalization" or code_only(self.prompt_version)
         ):
-            condition, transcripts = self._code_votes(task, excluded, order_seed, seed)
-            return GenerationResult(condition, mode, excluded, transcripts, time.perf_counter() - start)
+            condition, transcripts = self._code_votes(backend, task, excluded, order_seed, seed)
+            seconds = time.perf_counter() - start
+            return GenerationResult(condition, mode, excluded, transcripts, seconds, model)
         parts: dict[Chat, TaskCondition] = {}
         transcripts = []
         for chat in CHATS:
             transcript = ChatTranscript(chat, *self.layout(chat, task, excluded, order_seed))
             transcripts.append(transcript)
             if self.samples <= 1:
-                parts[chat] = self._chat(chat, task, seed, 0.0, transcript)
+                parts[chat] = self._chat(backend, chat, task, seed, 0.0, transcript)
             else:
                 answers = [
-                    self._chat(chat, task, seed + i, self.temperature, transcript)
+                    self._chat(backend, chat, task, seed + i, self.temperature, transcript)
                     for i in range(self.samples)
                 ]
                 parts[chat] = _majority(answers, task.name)
@@ -660,6 +706,7 @@ class ConditionGenerator:
             excluded=excluded,
             transcripts=transcripts,
             seconds=time.perf_counter() - start,
+            model=model,
         )
 
 

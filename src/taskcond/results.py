@@ -32,10 +32,13 @@ class RunConfig:
     Attributes:
         kind: ``execution`` (episodes in the suite: Tables III and IV, ``taskcond run``) or
             ``conditions`` (generated conditions scored against the references: Table II).
-        llm: the LLM backend and model, ``embedded:qwen2.5-coder-1.5b@RUNTIME-VERSION`` (the llama.cpp
-            runtime, e.g. ``xllamacpp-2026.10.11549``) or ``openai:MODEL@BASE_URL``.
-        llm_model_hash: SHA-256 prefix of the embedded model's GGUF file (pinned); None for a remote model,
-            whose weights the client cannot see.
+        llm: the LLM backend and model, ``embedded:MODEL@RUNTIME-VERSION`` (the llama.cpp runtime, e.g.
+            ``xllamacpp-2026.10.11549``), for the default each mode's model
+            (``embedded:generation=qwen2.5-coder-0.5b,generalization=qwen2.5-coder-1.5b@RUNTIME-VERSION``),
+            or ``openai:MODEL@BASE_URL``.
+        llm_model_hash: SHA-256 prefix of the embedded model's GGUF file (pinned; the default's two, comma
+            separated, in the order of ``llm``); None for a remote model, whose weights the client cannot
+            see.
         prompt_version: the prompt set of the condition generator (``taskcond/prompts/<version>``).
         generator: the generator's other settings (self-consistency samples, grammar use).
         noise: perception noise σ, metres (execution only).
@@ -191,7 +194,7 @@ def llm_fields(spec: str | None, generator: Any = None) -> dict[str, Any]:
     settings = {
         f.name: f.default if generator is None else getattr(generator, f.name)
         for f in fields(ConditionGenerator)
-        if f.name != "backend"
+        if f.name not in ("backend", "generation_backend")
     }
     return {
         "llm": name,

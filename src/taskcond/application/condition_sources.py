@@ -68,12 +68,12 @@ def _generator(llm: str | None, cache: bool, threads: int | None) -> ConditionGe
     """The condition generator of the ``--llm`` spec ``llm`` (default: $TASKCOND_LLM, the config file, else
     embedded; an embedded model on ``threads`` CPU threads, None: every core), its answers cached unless
     ``cache`` is off."""
-    from taskcond.llm.config import LLMConfig, make_backend
+    from taskcond.llm.config import LLMConfig
 
     config = replace(LLMConfig.load(llm), threads=threads)
     if not cache:
         config = replace(config, cache=False)
-    return ConditionGenerator(make_backend(config))
+    return ConditionGenerator.from_config(config)
 
 
 SourceFactory = Callable[[SkillLibrary, str | None, bool, int | None], ConditionSource | None]

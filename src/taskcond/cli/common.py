@@ -16,8 +16,9 @@ LlmOption = Annotated[
     str | None,
     typer.Option(
         "--llm",
-        help="Backend: embedded, embedded:MODEL (qwen2.5-coder-1.5b, qwen2.5-coder-0.5b), openai, "
-        "openai:MODEL. Default: $TASKCOND_LLM, the config file, else embedded.",
+        help="Backend: embedded (qwen2.5-coder-0.5b for generation, qwen2.5-coder-1.5b otherwise), "
+        "embedded:MODEL (that model for everything), openai, openai:MODEL. Default: $TASKCOND_LLM, the "
+        "config file, else embedded.",
     ),
 ]
 SamplesOption = Annotated[
@@ -169,15 +170,15 @@ def _generator(
 ):
 
     from taskcond.generator import ConditionGenerator, prompt_versions
-    from taskcond.llm.config import LLMConfig, make_backend
+    from taskcond.llm.config import LLMConfig
 
     if prompt_version not in prompt_versions():
         fail(f"--prompt-version {prompt_version!r}: use one of {', '.join(prompt_versions())}")
     config = LLMConfig.load(llm)
     if no_cache:
         config = replace(config, cache=False)
-    return ConditionGenerator(
-        make_backend(config), samples=samples, grammar=grammar, prompt_version=prompt_version
+    return ConditionGenerator.from_config(
+        config, samples=samples, grammar=grammar, prompt_version=prompt_version
     )
 
 

@@ -112,7 +112,7 @@ def conditions(
         for repair in repairs or ():
             typer.echo(f"#   {repair}")
     typer.echo(condition.to_text())
-    source = "cache" if result.cached else f"{gen.backend.name}:{gen.backend.model}"
+    source = "cache" if result.cached else result.model
     grounded_note = ", grounded in its demonstration" if repairs is not None else ""
     typer.echo(f"# {result.mode}{grounded_note}, {result.seconds:.2f} s, from {source}", err=True)
 

