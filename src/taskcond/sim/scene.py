@@ -228,6 +228,8 @@ def dual_arm_config(base: SceneConfig | None = None, cloth: ClothSpec | None = N
 DRAWERS = ("bottom drawer", "top drawer")
 ARTICULATED = ("top drawer", "bottom drawer", "box", "microwave")
 """Container names with a joint."""
+STOP_SLACK = 0.005
+"""How far (m or rad) past a container joint's limit :meth:`KitchenScene.keep_at_stops` lets it go."""
 ALIASES = {
     "upper drawer": "top drawer",
     "lower drawer": "bottom drawer",
@@ -545,6 +547,19 @@ class KitchenScene:
             tuple(map(_POSITION, p.getJointStates(body, joint_indices, client)))
             for body, joint_indices, _ in self._container_reads
         ]
+
+    def keep_at_stops(self, positions: list[tuple[float, ...]] | None = None) -> None:
+        """Put each container joint pushed more than :data:`STOP_SLACK` past a limit back on it, at rest, as a
+        rigid stop would hold it. PyBullet's joint-limit constraint stops a joint at its limit but never
+        brings back one pushed past it: a lid shoved 0.3 rad past its stop by a hand stayed there
+        (BENCHMARKS.md, "lids held at their stop"). ``positions`` as :meth:`container_joint_positions`
+        returns them (read now if not given)."""
+        positions = self.container_joint_positions() if positions is None else positions
+        for (body, indices, ranges), qs in zip(self._container_reads, positions, strict=True):
+            for index, (closed, span), q in zip(indices, ranges, qs, strict=True):
+                lower, upper = sorted((closed, closed + span))
+                if q < lower - STOP_SLACK or q > upper + STOP_SLACK:
+                    p.resetJointState(body, index, min(max(q, lower), upper), 0.0, physicsClientId=self.client)
 
     def open_fractions(self, positions: list[tuple[float, ...]] | None = None) -> list[float]:
         """:meth:`open_fraction` of every container of :data:`ARTICULATED`, in that order, from the joint
