@@ -559,7 +559,8 @@ class KitchenScene:
             for index, (closed, span), q in zip(indices, ranges, qs, strict=True):
                 lower, upper = sorted((closed, closed + span))
                 if q < lower - STOP_SLACK or q > upper + STOP_SLACK:
-                    p.resetJointState(body, index, min(max(q, lower), upper), 0.0, physicsClientId=self.client)
+                    stop = min(max(q, lower), upper)
+                    p.resetJointState(body, index, stop, 0.0, physicsClientId=self.client)
 
     def open_fractions(self, positions: list[tuple[float, ...]] | None = None) -> list[float]:
         """:meth:`open_fraction` of every container of :data:`ARTICULATED`, in that order, from the joint
