@@ -95,3 +95,21 @@ def test_the_oracle_follows_a_changed_spec(task, change) -> None:
         assert ok, reason
     finally:
         env.close()
+
+
+def test_a_lid_or_a_door_pushed_past_its_stop_comes_back_to_it() -> None:
+    """PyBullet's limit constraint stops a joint at its limit but leaves one pushed past it there (a hand
+    shoved the box's lid 0.3 rad past its stop in LHT1 from a random start); the scene drives it back."""
+    env = make("close-box", seed=0)
+    env.reset()
+    scene = env.scene
+    past = {"box": 1.98, "microwave": -0.2}
+    for name, q in past.items():
+        joint = scene.joints[name]
+        p.resetJointState(joint.body_id, joint.joint_index, q, physicsClientId=scene.client)
+    ee = scene.robot.ee_pose()
+    for _ in range(60):  # 2 s at 30 Hz
+        env.step(np.concatenate([ee.position, ee.orientation, [0.0]]))
+    for name, stop in {"box": scene.joints["box"].open_position, "microwave": 0.0}.items():
+        assert scene.joint_position(name) == pytest.approx(stop, abs=0.01), name
+    env.close()

@@ -221,10 +221,12 @@ class KitchenEnv(gym.Env):
         return self._judge()
 
     def _simulate(self) -> None:
-        """The physics of one control step under the commands set, and the cloth's grips after it."""
+        """The physics of one control step under the commands set, then the containers' stops
+        (:meth:`~taskcond.sim.scene.KitchenScene.keep_at_stops`) and the cloth's grips."""
         client = self.scene.client
         for _ in range(self.substeps):
             p.stepSimulation(client)
+        self.scene.keep_at_stops()
         if self.scene.grips is not None:
             self.scene.grips.update()
 

@@ -228,6 +228,19 @@ def dual_arm_config(base: SceneConfig | None = None, cloth: ClothSpec | None = N
 DRAWERS = ("bottom drawer", "top drawer")
 ARTICULATED = ("top drawer", "bottom drawer", "box", "microwave")
 """Container names with a joint."""
+JOINT_FRICTION = {"bottom drawer": 3.0, "top drawer": 3.0, "box": 0.01, "microwave": 0.3}
+"""Force (N) or torque (N m) of the zero-velocity motor that acts as each container joint's friction."""
+STOP_SLACK = 0.05
+"""How far (m or rad) past a container joint's limit :meth:`KitchenScene.keep_at_stops` lets it go: more than
+the demonstrations press a lid or door past it (at most 0.01 rad) or a weight on a closed lid presses it
+down (0.04 rad), so that those are as PyBullet leaves them."""
+STOP_REACHED = 0.005
+"""How near (m or rad) to the limit :meth:`KitchenScene.keep_at_stops` drives a joint back."""
+STOP_FORCE = 5.0
+"""Force (N) or torque (N m) with which :meth:`KitchenScene.keep_at_stops` drives a joint back to a limit."""
+STOP_SPEED = 0.2
+"""Speed (m/s or rad/s) at most of a joint :meth:`KitchenScene.keep_at_stops` drives back to a limit, slow
+enough that the joint's friction stops it there."""
 ALIASES = {
     "upper drawer": "top drawer",
     "lower drawer": "bottom drawer",
@@ -320,16 +333,10 @@ class KitchenScene:
         self._container_reads = self._plan_container_reads()
         self._container_ranges = [r for _, _, ranges in self._container_reads for r in ranges]
         """Closed position and range (m or rad) of each container joint, in :data:`ARTICULATED` order."""
-        friction = {"bottom drawer": 3.0, "top drawer": 3.0, "box": 0.01, "microwave": 0.3}
+        self._past_stop: set[str] = set()
+        """Containers whose joint :meth:`keep_at_stops` is driving back to a limit."""
         for name, joint in self.joints.items():
-            p.setJointMotorControl2(
-                joint.body_id,
-                joint.joint_index,
-                p.VELOCITY_CONTROL,
-                targetVelocity=0,
-                force=friction[name],
-                physicsClientId=self.client,
-            )
+            self._joint_motor(name, None)
             p.changeDynamics(
                 joint.body_id, joint.joint_index, lateralFriction=0.6, physicsClientId=self.client
             )
@@ -546,6 +553,35 @@ class KitchenScene:
             for body, joint_indices, _ in self._container_reads
         ]
 
+    def keep_at_stops(self) -> None:
+        """Drive each container joint pushed more than :data:`STOP_SLACK` past a limit back to it, as a stop
+        would; PyBullet's joint-limit constraint stops a joint at its limit but never brings back one pushed
+        past it (a hand shoved the box's lid 0.3 rad past its stop, and it stayed there: BENCHMARKS.md, "lids
+        back on their stops"). The joint's friction motor gives way to a position motor of at most
+        :data:`STOP_FORCE` towards the limit, compliant so that a hand still pressing is not thrown off,
+        until the joint is within :data:`STOP_REACHED` of it. Once per control step."""
+        flat = [q for qs in self.container_joint_positions() for q in qs]
+        for name, q, (closed, span) in zip(ARTICULATED, flat, self._container_ranges, strict=True):
+            lower, upper = sorted((closed, closed + span))
+            stop = min(max(q, lower), upper)
+            if name in self._past_stop and abs(q - stop) <= STOP_REACHED:
+                self._past_stop.discard(name)
+                self._joint_motor(name, None)
+            elif name not in self._past_stop and abs(q - stop) > STOP_SLACK:
+                self._past_stop.add(name)
+                self._joint_motor(name, stop)
+
+    def _joint_motor(self, name: str, stop: float | None) -> None:
+        """A container joint's motor: its friction (:data:`JOINT_FRICTION`), or with ``stop`` (m or rad) a
+        position motor towards it (:meth:`keep_at_stops`)."""
+        joint = self.joints[name]
+        if stop is None:
+            mode = {"controlMode": p.VELOCITY_CONTROL, "targetVelocity": 0, "force": JOINT_FRICTION[name]}
+        else:
+            mode = {"controlMode": p.POSITION_CONTROL, "targetPosition": stop, "force": STOP_FORCE}
+            mode["maxVelocity"] = STOP_SPEED
+        p.setJointMotorControl2(joint.body_id, joint.joint_index, **mode, physicsClientId=self.client)
+
     def open_fractions(self, positions: list[tuple[float, ...]] | None = None) -> list[float]:
         """:meth:`open_fraction` of every container of :data:`ARTICULATED`, in that order, from the joint
         ``positions`` :meth:`container_joint_positions` returned (read now if not given)."""
@@ -582,10 +618,13 @@ class KitchenScene:
         return interior
 
     def set_joint(self, container: str, fraction: float) -> None:
-        """Put a container at ``fraction`` of its range, at rest (episode reset only)."""
+        """Put a container at ``fraction`` of its range, at rest, with its friction motor (reset only)."""
         j = self.joints[container]
         q = j.closed_position + fraction * (j.open_position - j.closed_position)
         p.resetJointState(j.body_id, j.joint_index, q, 0.0, physicsClientId=self.client)
+        if container in self._past_stop:
+            self._past_stop.discard(container)
+            self._joint_motor(container, None)
 
     def place(self, name: str, xy: tuple[float, float] | np.ndarray, yaw: float, z: float = 0.0) -> None:
         """Put a free object's bottom-centre frame at ``(x, y, z)`` with ``yaw``, upright, at rest (reset
