@@ -231,7 +231,8 @@ def test_the_default_generates_with_the_small_model_and_generalizes_with_the_lar
 
 def test_each_mode_has_its_model_and_results_name_both():
     """One place maps a mode to its model (:meth:`LLMConfig.for_mode`): the default's two, a chosen model for
-    both; the label of the default names each mode's model and hash."""
+    both; the label of the default names each mode's model and hash, and loads back as the default (a
+    replay runs a result again with its recorded backend)."""
     default = LLMConfig.load(None)
     assert default.model is None
     assert {m: default.for_mode(m).model for m in ("generation", "generalization")} == MODE_MODELS
@@ -245,6 +246,8 @@ def test_each_mode_has_its_model_and_results_name_both():
     assert backend_label(LLMConfig.load("embedded:qwen2.5-coder-0.5b"))[0].startswith(
         "embedded:qwen2.5-coder-0.5b@"
     )
+    recorded = label.split("@")[0]  # what `taskcond replay` runs a result again with
+    assert LLMConfig.load(recorded) == default
 
 
 def test_similar_order_puts_the_most_alike_examples_next_to_the_question():

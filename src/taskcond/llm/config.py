@@ -33,7 +33,7 @@ from pathlib import Path
 
 from taskcond.llm.base import ChatBackend, LLMError
 from taskcond.llm.cache import CachedBackend
-from taskcond.llm.models import DEFAULT_EMBEDDED_MODEL, MODE_MODELS, Mode, cache_dir
+from taskcond.llm.models import DEFAULT_EMBEDDED_MODEL, MODE_MODELS, MODE_MODELS_NAME, Mode, cache_dir
 
 
 class BackendKind(StrEnum):
@@ -116,6 +116,8 @@ class LLMConfig:
             )
         chosen = spec or os.environ.get("TASKCOND_LLM") or table.get("backend") or "embedded"
         kind, _, model = chosen.partition(":")
+        if kind == BackendKind.EMBEDDED and model == MODE_MODELS_NAME:
+            model = ""  # the default's models, as a result names them
         if kind not in BACKENDS:
             valid = ", ".join(f"{k}, {k}:MODEL" for k in BACKENDS)
             raise LLMError(f"unknown backend {chosen!r}; valid: {valid}", backend="config")
@@ -196,9 +198,8 @@ def _label_embedded(config: LLMConfig) -> tuple[str, str | None]:
     if config.model:
         model = get_embedded_model(config.model)
         return f"embedded:{model.name}@{runtime}", model.sha256[:16]
-    models = {mode: get_embedded_model(name) for mode, name in MODE_MODELS.items()}
-    names = ",".join(f"{mode}={m.name}" for mode, m in models.items())
-    return f"embedded:{names}@{runtime}", ",".join(m.sha256[:16] for m in models.values())
+    models = [get_embedded_model(name) for name in MODE_MODELS.values()]
+    return f"embedded:{MODE_MODELS_NAME}@{runtime}", ",".join(m.sha256[:16] for m in models)
 
 
 def _resolve_openai(cfg: LLMConfig, table: dict) -> LLMConfig:

@@ -66,6 +66,9 @@ MODE_MODELS: dict[Mode, str] = {"generation": "qwen2.5-coder-0.5b", "generalizat
 """The embedded model of each mode when none is chosen (``--llm embedded``): the 0.5B writes generation
 conditions as well as the 1.5B and faster (BENCHMARKS.md, issue 34); the 1.5B, loaded only when asked,
 generalizes."""
+MODE_MODELS_NAME = ",".join(f"{mode}={name}" for mode, name in MODE_MODELS.items())
+"""How results name :data:`MODE_MODELS` (``embedded:<this>@RUNTIME``); ``--llm embedded:<this>`` is the
+default's spelled out, so that a result's recorded backend names the backend to run it again with."""
 
 
 def cache_dir() -> Path:
