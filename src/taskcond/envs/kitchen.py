@@ -221,18 +221,19 @@ class KitchenEnv(gym.Env):
         return self._judge()
 
     def _simulate(self) -> None:
-        """The physics of one control step under the commands set, then the containers' stops
-        (:meth:`~taskcond.sim.scene.KitchenScene.keep_at_stops`) and the cloth's grips."""
+        """The physics of one control step under the commands set, and the cloth's grips after it."""
         client = self.scene.client
         for _ in range(self.substeps):
             p.stepSimulation(client)
-        self.scene.keep_at_stops()
         if self.scene.grips is not None:
             self.scene.grips.update()
 
     def _judge(self) -> tuple[dict[str, np.ndarray], float, bool, bool, dict[str, Any]]:
-        """The end of a control step: the state read once, the blow-up check, the task's success judge."""
+        """The end of a control step: the state read once, the containers' stops from it
+        (:meth:`~taskcond.sim.scene.KitchenScene.keep_at_stops`), the blow-up check, the task's success
+        judge."""
         reading = self.reader.read()
+        self.scene.keep_at_stops(reading.containers)
         if self.failure is None:
             self.failure = self.monitor.check(reading)
         self.steps += 1

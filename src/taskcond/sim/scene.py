@@ -553,14 +553,15 @@ class KitchenScene:
             for body, joint_indices, _ in self._container_reads
         ]
 
-    def keep_at_stops(self) -> None:
+    def keep_at_stops(self, positions: list[tuple[float, ...]]) -> None:
         """Drive each container joint pushed more than :data:`STOP_SLACK` past a limit back to it, as a stop
         would; PyBullet's joint-limit constraint stops a joint at its limit but never brings back one pushed
         past it (a hand shoved the box's lid 0.3 rad past its stop, and it stayed there: BENCHMARKS.md, "lids
         back on their stops"). The joint's friction motor gives way to a position motor of at most
         :data:`STOP_FORCE` towards the limit, compliant so that a hand still pressing is not thrown off,
-        until the joint is within :data:`STOP_REACHED` of it. Once per control step."""
-        flat = [q for qs in self.container_joint_positions() for q in qs]
+        until the joint is within :data:`STOP_REACHED` of it. Once per control step, from the joint
+        ``positions`` :meth:`container_joint_positions` returned."""
+        flat = [q for qs in positions for q in qs]
         for name, q, (closed, span) in zip(ARTICULATED, flat, self._container_ranges, strict=True):
             lower, upper = sorted((closed, closed + span))
             stop = min(max(q, lower), upper)
