@@ -485,13 +485,16 @@ class ConditionGenerator:
         """The backend that answers ``mode``'s conditions."""
         return (self.generation_backend or self.backend) if mode == "generation" else self.backend
 
+    def model_for(self, mode: Mode) -> str:
+        """``BACKEND:MODEL`` of :meth:`backend_for` ``mode``."""
+        backend = self.backend_for(mode)
+        return f"{backend.name}:{backend.model}"
+
     @property
     def model(self) -> str:
         """``BACKEND:MODEL`` of the backend, or of each mode's where they differ
         (``generation=BACKEND:MODEL,generalization=BACKEND:MODEL``)."""
-        names = {
-            mode: f"{self.backend_for(mode).name}:{self.backend_for(mode).model}" for mode in get_args(Mode)
-        }
+        names = {mode: self.model_for(mode) for mode in get_args(Mode)}
         if len(set(names.values())) == 1:
             return names["generation"]
         return ",".join(f"{mode}={name}" for mode, name in names.items())
@@ -678,8 +681,7 @@ class ConditionGenerator:
         if task.primitive.id not in example_conditions() and task.primitive.id not in excluded:
             excluded += (task.primitive.id,)  # a declared primitive has no example: always generalized
         mode: Mode = "generalization" if task.primitive.id in excluded else "generation"
-        backend = self.backend_for(mode)
-        model = f"{backend.name}:{backend.model}"
+        backend, model = self.backend_for(mode), self.model_for(mode)
         if uses_code_form(self.prompt_version) and (
             mode == "generalization" or code_only(self.prompt_version)
         ):
