@@ -77,20 +77,21 @@ def embedded_backend(_project_only):
     cache: the very backend the command line builds in this session (its prefix states in the session's
     cache), so that a test driving the command line in-process shares its loaded model
     (:func:`taskcond.llm.config.embedded_backend`) instead of loading a second one."""
-    from taskcond.llm.config import BACKENDS, BackendKind, LLMConfig
-
-    backend = BACKENDS[BackendKind.EMBEDDED].build(LLMConfig.load(None))
-    backend._load()
-    return backend
+    return _loaded_backend("generalization")
 
 
 @pytest.fixture(scope="session")
 def small_backend(_project_only):
     """The real embedded backend of the default's generation conditions (the 0.5B model,
     :data:`taskcond.llm.models.MODE_MODELS`), as :func:`embedded_backend` is the default model's."""
+    return _loaded_backend("generation")
+
+
+def _loaded_backend(mode: str):
+    """The command line's embedded backend of ``mode``'s model, its model loaded."""
     from taskcond.llm.config import BACKENDS, BackendKind, LLMConfig
 
-    backend = BACKENDS[BackendKind.EMBEDDED].build(LLMConfig.load(None).for_mode("generation"))
+    backend = BACKENDS[BackendKind.EMBEDDED].build(LLMConfig.load(None).for_mode(mode))
     backend._load()
     return backend
 
