@@ -391,3 +391,41 @@ def test_the_planner_refuses_what_the_world_does_not_afford():
     assert world.affords("open", ("bottle",)) == "bottle has nothing to open"
     fixed = repair(["grasp bottle"], world.observe().predicates, CONDITIONS.get, world.affords)
     assert fixed.steps == ("grasp bottle",) and not fixed.changes
+
+
+class JammedFingersWorld(TableTopWorld):
+    """:class:`TableTopWorld` whose fingers, opened on the held object, stay shut on it (it follows the
+    hand) until they close on it again: an object that turned in the opening hand and wedged across the
+    pads. ``highest``: the highest the held object's centre has been, m."""
+
+    def __init__(self, **kwargs) -> None:
+        super().__init__(**kwargs)
+        self.jammed = self.opened = False
+        self.highest = -np.inf
+
+    def step(self, position: np.ndarray, orientation: np.ndarray, gripper: float) -> str | None:
+        if self.held is not None:
+            if gripper <= 0.5:
+                self.jammed = self.jammed or not self.opened
+                self.opened = True
+            elif self.opened:
+                self.jammed = False
+            if self.jammed:
+                gripper = 1.0
+        reason = super().step(position, orientation, gripper)
+        if self.held is not None:
+            self.highest = max(self.highest, float(self.centers[self.held][2]))
+        return reason
+
+
+def test_a_release_whose_fingers_stay_shut_closes_them_again_and_reopens_before_the_hand_rises():
+    """Issue 31 (LHT2 seeds 1002 and 1008): the bowl wedged across the opening pads and the release's rise
+    lifted it with the hand, on every try. The hand opens where it is, closes on the object again and
+    reopens, and rises empty: the object never leaves where it stands, and the first try succeeds."""
+    world = JammedFingersWorld(hand=(0.5, 0.1, 0.13), holding="bottle")
+    result = Executor(world, _library(), "env", TableConditions(), CONFIG).run(["release bottle"])
+    assert world.held is None and world.highest == 0.06
+    assert [e.data["regrip"] for e in result.events if e.kind == EventKind.REGRIP] == [1]
+    assert [e.kind for e in result.events if e.kind in (EventKind.POST, EventKind.POST_MISSING)] == [
+        EventKind.POST
+    ]

@@ -229,6 +229,36 @@ class Approach:
         if self.world.observe().grasped() == held:
             self._lower(task, depth, held)
 
+    def _let_go(self, task: str, depth: int, monitor: CollisionMonitor) -> None:
+        """Beyond the paper: before a release's DMP, open the hand where it is until the held object is no
+        longer grasped (both fingers no longer touch it, the perceiver's rule), for at most
+        :data:`REGRIP_TIME`; while it stays grasped, close the hand on it again and reopen, at most
+        :data:`REGRIPS` times, as the scripted demonstrator's release does
+        (:func:`taskcond.tasks.motions.release_plans`). An object that turns in the opening hand can wedge
+        across the pads: their edges sink into its wall, which presses them along their width, across the
+        way they open, and the finger motors cannot overcome the friction; the release's rise then lifts
+        it with the hand. Closing again presses the wall flat between the pads. The hand is held where it
+        is, not where it was last commanded (issue 31: the bowl carried into the bottom drawer, under a hand
+        Alg. 2 had pressed against the top drawer, turned 9° as the fingers opened and pinched them at
+        5.6 mm with 20–36 N along their width; every rise lifted it). A contact of the hand that
+        ``monitor`` (the release's, Alg. 2 line 2) does not allow, a finger opening into a neighbour, ends
+        it at once: the DMP's Alg. 2 answers that contact."""
+        held = parse_task(task).objects[0]
+        if self.world.observe().grasped() != held:
+            return
+        here, quat = self.world.ee_pose()
+        steps = math.ceil(REGRIP_TIME / self.world.dt)
+        for regrip in range(REGRIPS + 1):
+            if regrip:
+                self.log.regrip(task, depth, held, regrip)
+            for gripper in (1.0, 0.0) if regrip else (0.0,):
+                for _ in range(steps):
+                    self._step(here, quat, gripper)
+                    if monitor.unallowed(self.world.touches(), closed=False) is not None:
+                        return
+                    if gripper < 0.5 and self.world.observe().grasped() != held:
+                        return
+
     def _lower(self, task: str, depth: int, held: str) -> None:
         """Lower the hand with ``held`` straight down onto what lies under it (:func:`_support_below`)
         until it touches something or is :data:`SET_DOWN_GAP` above it; nothing when it is already
@@ -884,6 +914,11 @@ BACK_OFF_RELEASE = 10
 SET_DOWN_GAP = 0.01
 """Height (m) above its support at which a held object is let go when Alg. 1 frees the hand
 (:meth:`Approach._set_down`)."""
+REGRIPS = 2
+"""Times :meth:`Approach._let_go` closes the hand on an object it could not let go of and reopens it."""
+REGRIP_TIME = 0.6
+"""Most seconds :meth:`Approach._let_go` gives the fingers to let go of an object, and the seconds it
+gives them to close on it again."""
 UNWIND_LIFT = 0.10
 """How far (m) the open hand rises before a wound arm moves back through its home joints
 (:meth:`Approach._unwind`)."""

@@ -48,6 +48,9 @@ class EventKind(StrEnum):
     primitive (``lift``, m)."""
     SET_DOWN = "set_down"
     """A held object is lowered onto its support before a release that Alg. 1 raised."""
+    REGRIP = "regrip"
+    """The hand could not let go of the object a release opened it on: it closes on it again and reopens
+    (``held``, ``regrip``: the how-manyth time)."""
     PRIMITIVE = "primitive"
     """A primitive's DMPs start."""
     COLLISION = "collision"
@@ -190,6 +193,15 @@ class EventLog:
             depth,
             f"{task}: setting {held} down {drop * 100:.0f} cm first (before the hand opens)",
             {"held": held, "drop": round(drop, 4)},
+        )
+
+    def regrip(self, task: str, depth: int, held: str, regrip: int) -> None:
+        self.emit(
+            EventKind.REGRIP,
+            task,
+            depth,
+            f"{task}: the fingers stayed shut on {held}: closing them on it again and reopening ({regrip})",
+            {"held": held, "regrip": regrip},
         )
 
     def primitive(

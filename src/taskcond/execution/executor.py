@@ -399,8 +399,9 @@ class Executor(Approach):
         """Alg. 2 (ControlWithCond): the allowed collisions of ``cond`` (line 2, a
         :class:`~taskcond.execution.collisions.CollisionMonitor`), the goal from the environment
         information (lines 3–4, :meth:`_aim`), then each DMP piece of the skill in turn (lines 5–15,
-        :meth:`_follow`); the last command is held :attr:`ExecutionConfig.settle_steps` steps. Without a
-        condition (method ``none``) the pieces just run. ``retry``: the primitive was tried before (see
+        :meth:`_follow`); the last command is held :attr:`ExecutionConfig.settle_steps` steps. A release
+        first lets go where the hand is (:meth:`_let_go`). Without a condition (method ``none``) the pieces
+        just run. ``retry``: the primitive was tried before (see
         :meth:`_aim`)."""
         obs = self.world.observe()
         aim = self._aim(task, obs, retry)
@@ -424,6 +425,8 @@ class Executor(Approach):
             aim.swept if aim.detour else (),
             aim.tilt,
         )
+        if monitor is not None and parse_task(task).primitive.lets_go:
+            self._let_go(task, depth, monitor)
         if aim.approach is not None:
             self._transit(aim.approach, self._arrival(task, aim), aim.skill.segments[0].gripper, aim.over)
         adjustments, planned = 0, None

@@ -49,7 +49,13 @@ WHITE, YELLOW, ORANGE, RED, GREEN, GREY = (
 )
 ALG1 = {"raise": "Alg. 1", "skip": "Alg. 1", "set_down": "Alg. 1"}
 """Event kinds flashed as Alg. 1's (pre-condition satisfaction)."""
-ALG2 = {"collision": "Alg. 2", "post_missing": "Alg. 2", "back_off": "retry", "repair": "grounding"}
+ALG2 = {
+    "collision": "Alg. 2",
+    "post_missing": "Alg. 2",
+    "back_off": "retry",
+    "regrip": "retry",
+    "repair": "grounding",
+}
 """Event kinds flashed as Alg. 2's (control with conditions, post-conditions) or a retry's."""
 
 
