@@ -13,7 +13,8 @@ from itertools import pairwise
 import numpy as np
 
 from taskcond.conditions import Collision, ContainerState, GripperState, Predicate, TaskCondition
-from taskcond.execution.approach import Aim
+from taskcond.dmp import rollout
+from taskcond.execution.approach import Aim, _conditioned
 from taskcond.execution.config import ExecutionConfig
 from taskcond.execution.events import EventKind
 from taskcond.execution.executor import Executor
@@ -429,3 +430,19 @@ def test_a_release_whose_fingers_stay_shut_closes_them_again_and_reopens_before_
     assert [e.kind for e in result.events if e.kind in (EventKind.POST, EventKind.POST_MISSING)] == [
         EventKind.POST
     ]
+
+
+def test_a_piece_whose_new_offset_hardly_moves_a_dimension_keeps_no_demonstrated_excursion_in_it():
+    """Issue 31 (the spatula carried into the top drawer from random start 1000): the transit ended at the
+    height of the first piece's goal, a fraction of a millimetre above it; that opposite sign replayed the
+    demonstrated 28 cm rise unscaled, and the hand dived 19 cm beside the drawer. Scaled by a near-zero
+    offset, the rise vanishes whatever the offset's sign."""
+    box = np.array([0.4, -0.2, 0.05])
+    low, high = np.array([0.3, 0.0, 0.06]), np.array([0.4, -0.15, 0.34])
+    skill = learn_skill(_demo("move bottle into box", [(low, 1.0, 0), (high, 1.0, 90)], box))
+    seg = skill.segments[0]
+    goal = seg.goal(high, box)
+    for dz in (-0.0004, 0.0, 0.0004):
+        start = np.array([0.25, 0.05, goal[2] + dz])
+        heights = rollout(_conditioned(seg, start, goal), start, goal, n_steps=60).positions[:, 2]
+        assert np.abs(heights - goal[2]).max() < 0.002

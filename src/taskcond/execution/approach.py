@@ -55,19 +55,23 @@ def _conditioned(
     the new offset ``goal − start`` keeps the demonstrated sign and at most :data:`MAX_STRETCH` times its
     size, the unscaled term elsewhere (:meth:`DMPParameters.unscaled`), so that a demonstration is never
     replayed mirrored or blown up; a dimension the demonstration hardly moved (less than
-    :data:`MIN_SCALED`) is always unscaled, so that a millimetre more or less of offset does not switch
-    its demonstrated excursion on or off. A ``descent`` (:attr:`Aim.descent`) keeps no horizontal forcing
-    term: the hand comes straight down onto its goal, whatever way the demonstration came in sideways. A
-    ``straight`` piece (:attr:`Aim.detour`) keeps none at all: a straight line to its goal."""
+    :data:`MIN_SCALED`) is always unscaled, and one the new offset hardly moves (less than that) always
+    scaled, whatever its sign, so that a millimetre more or less of offset does not switch its
+    demonstrated excursion on or off (issue 31: a carry whose transit ended at its first goal's height,
+    a fraction of a millimetre above it, replayed the demonstrated 28 cm rise unscaled and dived 19 cm).
+    A ``descent`` (:attr:`Aim.descent`) keeps no horizontal forcing term: the hand comes straight down
+    onto its goal, whatever way the demonstration came in sideways. A ``straight`` piece
+    (:attr:`Aim.detour`) keeps none at all: a straight line to its goal."""
     dmp = seg.dmp
     if straight:
         return dmp.unforced(np.ones(dmp.n_dims, dtype=bool))
     if descent:
         dmp = dmp.unforced(np.tile([True, True, False], dmp.n_dims // 3))
-    demo = dmp.goal - dmp.y0
+    demo, new = dmp.goal - dmp.y0, np.asarray(goal) - np.asarray(start)
     with np.errstate(divide="ignore", invalid="ignore"):
-        ratio = np.where(dmp.goal_scaled, (np.asarray(goal) - np.asarray(start)) / demo, 1.0)
-    bad = dmp.goal_scaled & ((ratio < 0) | (np.abs(ratio) > MAX_STRETCH) | (np.abs(demo) < MIN_SCALED))
+        ratio = np.where(dmp.goal_scaled, new / demo, 1.0)
+    mirrored = (ratio < 0) & (np.abs(new) >= MIN_SCALED)
+    bad = dmp.goal_scaled & (mirrored | (np.abs(ratio) > MAX_STRETCH) | (np.abs(demo) < MIN_SCALED))
     return dmp.unscaled(bad) if bad.any() else dmp
 
 
@@ -446,7 +450,13 @@ class Approach:
         (the cabinet borrowing the box's), rises beside the box and runs into the taller target's front.
         The skill's later pieces (the demonstrated last lowering) are kept. Another carry with a transit to
         ``approach`` (3,) m, the skill's demonstrated start relative to ``target``, goes over what lies on
-        the way; without one (None) the demonstrated way is followed from the hand."""
+        the way, and comes down to it no lower than its first piece's goal: a demonstrated start below
+        the place (a move into the top drawer demonstrated with the bowl picked up from the table) would
+        have the transit come down beside the container only for the first piece to rise again, and a
+        longer object than the demonstrated one lands on what stands there (issue 31: the spatula on the
+        bottom drawer's front, turned 67° in the hand); from that height the first piece goes across
+        (:func:`_conditioned` scales away its demonstrated rise). Without a transit (None) the demonstrated
+        way is followed from the hand."""
         parsed = parse_task(task)
         held, first = parsed.objects[0], skill.segments[0]
         descent = parsed.primitive.places in CARRIED_OVER and first.anchor == "target" and skill.arms == 1
@@ -457,6 +467,8 @@ class Approach:
             descent = False
         if approach is None:
             return CarriedWay(None, None, False)
+        if not descent and first.anchor == "target":  # never down to a start below the place
+            approach = np.array([approach[0], approach[1], max(float(approach[2]), float(place[2]))])
         return CarriedWay(approach, _carry_height(held, here, approach, obs, self.world.arms), descent)
 
     def _clear_way(self, g: TargetAim, turn: float, way: CarriedWay) -> CarriedWay:
