@@ -568,3 +568,22 @@ def test_a_place_on_the_cabinets_far_corner_is_pulled_within_the_hands_reach_and
         assert "toothpaste" not in obs.lying
     finally:
         env.close()
+
+
+def test_the_opening_of_a_mug_is_perceived_on_its_axis_whatever_way_its_handle_points() -> None:
+    """Issue 31: the mug's handle widens its box on one side, so the box's centre is off the opening's axis
+    by a centimetre, on the side the handle points to. The kitchen perceives the opening itself, at the rim's
+    height; a round vessel's is its box's centre."""
+    for yaw in (0.0, math.pi / 2, 2.5):
+        env, world = _scene({"mug": (0.40, -0.20, yaw), "bowl": (0.40, 0.10)})
+        try:
+            obs = world.observe()
+            base = env.scene.pose("mug")[0]
+            lo, hi = obs.boxes["mug"]
+            opening = obs.openings["mug"]
+            assert np.allclose(opening[:2], base[:2], atol=1e-3)
+            assert np.linalg.norm((lo + hi)[:2] / 2 - opening[:2]) > 0.008  # the handle's side
+            assert abs(opening[2] - hi[2]) < 0.015  # at the rim
+            assert np.allclose(obs.openings["bowl"][:2], obs.centers["bowl"][:2], atol=0.005)
+        finally:
+            env.close()

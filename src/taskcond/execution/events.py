@@ -220,6 +220,7 @@ class EventLog:
         over: float | None = None,
         swept: Sequence[str] = (),
         tilt: float = 0.0,
+        mirror: bool = False,
     ) -> None:
         """``turn``: rad the demonstration is turned about the target's vertical axis (a grasp from
         another side); ``aside``: (3,) m the place was moved from the demonstrated spot; each reported only
@@ -231,7 +232,9 @@ class EventLog:
         height (m, world z) of the hand carrying its object to ``approach`` over what stands on the way, or
         None; ``swept``: the free objects the demonstrated way would have swept, when the hand went over
         them to ``approach`` on the line of the demonstrated last approach instead
-        (:attr:`~taskcond.execution.approach.Aim.detour`); ``tilt``: rad the hand was tilted on it."""
+        (:attr:`~taskcond.execution.approach.Aim.detour`); ``tilt``: rad the hand was tilted on it;
+        ``mirror``: the hand turns the other way about the demonstrated axis
+        (:attr:`~taskcond.execution.approach.Aim.mirror`)."""
         degrees = round(math.degrees(turn))
         way = _approach_note(approach, descent, parse_task(task).primitive.grasps, over, swept, tilt)
         moved = aside is not None and bool(np.any(aside))
@@ -251,12 +254,19 @@ class EventLog:
                 else ""
             )
             + (f", {fmt_vector(aside)} aside of the demonstrated spot (taken)" if moved else "")
+            + (
+                ", turning the hand the other way about the demonstrated axis (the arm cannot follow the "
+                "demonstrated turn from its joints now)"
+                if mirror
+                else ""
+            )
             + way[0],
             {"skill": skill.task_id, "target": target_name, "target_center": json_vector(target)}
             | ({"demonstration": skill.task_name, "similar": choice} if choice else {})
             | ({"offset_scale": json_vector(scale)} if scaled else {})
             | ({"turn_degrees": degrees} if degrees else {})
             | ({"aside": json_vector(aside)} if moved else {})
+            | ({"mirrored": True} if mirror else {})
             | way[1],
         )
 

@@ -424,6 +424,7 @@ class Executor(Approach):
             aim.over,
             aim.swept if aim.detour else (),
             aim.tilt,
+            aim.mirror,
         )
         if monitor is not None and parse_task(task).primitive.lets_go:
             self._let_go(task, depth, monitor)
@@ -544,7 +545,7 @@ class Executor(Approach):
         rollout = self._gen_dmp(seg, start, goal, aim.descent and first, aim.detour and first)
         self._tell(rollout, goal, monitor, seg.gripper >= 0.5)
         n = max(1, math.ceil(rollout.tau / self.world.dt - 1e-9))
-        orientations = seg.orientation(np.arange(n + 1) / n, start_q, aim.turn, aim.hold)
+        orientations = seg.orientation(np.arange(n + 1) / n, start_q, aim.turn, aim.hold, aim.mirror)
         if aim.detour and first:  # turned on the detour as the piece ends: it keeps that heading
             orientations = np.tile(start_q, (n + 1, 1))
         k = made = 0

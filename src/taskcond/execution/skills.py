@@ -209,7 +209,12 @@ class Segment:
         return profiles
 
     def orientation(
-        self, fraction: float | np.ndarray, start: np.ndarray, turn: float = 0.0, hold: bool = False
+        self,
+        fraction: float | np.ndarray,
+        start: np.ndarray,
+        turn: float = 0.0,
+        hold: bool = False,
+        mirror: bool = False,
     ) -> np.ndarray:
         """Orientations xyzw of the k arms at ``fraction`` ∈ [0, 1] of the piece ((4k,), or (m, 4k) for m
         fractions) when it started at orientations ``start`` (4k,); ``turn`` (rad, about the world's
@@ -222,7 +227,9 @@ class Segment:
         orientation relative to the world (the target's frame). A parallel gripper turned half a turn
         about its own axis (its z) holds the same way, so R_d is taken as it was or half a turn turned,
         whichever starts nearer to ``start``: a hand holding a bowl by its wall then keeps the bowl on its
-        side instead of swinging it round the hand."""
+        side instead of swinging it round the hand. With ``mirror``, the demonstrated turn from the piece's
+        first orientation, R_d(0)⁻¹ R_d(s), is taken the other way about the same axis (a tilt that pours
+        the other way; :attr:`~taskcond.execution.approach.Aim.mirror`)."""
         s = np.clip(np.asarray(fraction, dtype=float), 0.0, 1.0)
         u = np.atleast_1d(s)
         weight = 1.0 - u * u * (3 - 2 * u) if self.anchor == "target" and not hold else np.ones_like(u)
@@ -234,9 +241,10 @@ class Segment:
             first = spin * Rotation.from_quat(self.orientations[0, 4 * arm : 4 * arm + 4])
             twin = twin_turn(first, here)
             offset = (here * (first * twin).inv()).as_rotvec()
-            arms.append(
-                (Rotation.from_rotvec(weight[:, None] * offset[None, :]) * spin * profile(u) * twin).as_quat()
-            )
+            demo = spin * profile(u)
+            if mirror:
+                demo = first * demo.inv() * first
+            arms.append((Rotation.from_rotvec(weight[:, None] * offset[None, :]) * demo * twin).as_quat())
         quats = np.concatenate(arms, axis=1)
         return quats if s.ndim else quats[0]
 

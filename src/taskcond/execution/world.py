@@ -52,6 +52,9 @@ class Observation:
             Empty where a world perceives no orientation (the kitchen).
         yaw_periods: object name → the turn (rad) about the vertical after which it looks the same (π for
             a rectangular section, π/2 for a square one), for each object of :attr:`yaws`.
+        openings: free vessel → the centre (3,) m, world frame, of its opening (its inside's axis at the
+            height of its rim), for the upright vessels a world perceives it of: a handle widens the box, so
+            the box's centre is not the opening's. Empty where a world perceives none.
     """
 
     predicates: frozenset[Predicate]
@@ -63,6 +66,7 @@ class Observation:
     shapes: dict[str, str] = field(default_factory=dict)
     yaws: dict[str, float] = field(default_factory=dict)
     yaw_periods: dict[str, float] = field(default_factory=dict)
+    openings: dict[str, np.ndarray] = field(default_factory=dict)
 
     def holds(self, predicate: Predicate) -> bool:
         return predicate in self.predicates
@@ -148,6 +152,12 @@ class World(Protocol):
         joints it can: an arm whose commands are solved by IK seeded by its last answer, wound far from home
         (the Panda's wrist at its limit after an open of the bottom drawer), misses them by decimetres;
         :meth:`unwind` mends it. Nothing moves. Always False for an arm driven in task space."""
+        ...
+
+    def follows(self, positions: np.ndarray, orientations: np.ndarray) -> bool:
+        """Whether the first arm, from its joints now, takes its end effector through ``positions`` (m, 3)
+        with ``orientations`` (m, 4) xyzw in turn, each within :data:`REACHED`, as its commands would be
+        solved. Nothing moves. Always True for an arm driven in task space."""
         ...
 
     def unwind(self, gripper: float) -> str | None:

@@ -43,6 +43,7 @@ def _observation(
     lying: frozenset[str],
     shapes: dict[str, str],
     yaws: dict[str, float],
+    openings: dict[str, np.ndarray],
 ) -> Observation:
     return Observation(
         predicates=info.predicates,
@@ -53,6 +54,7 @@ def _observation(
         lying=lying,
         shapes=shapes,
         yaws=yaws,
+        openings=openings,
     )
 
 
@@ -136,6 +138,8 @@ class KitchenWorld:
         """Every object's roles (:func:`~taskcond.sim.roles.scene_roles`), read when a move into is asked."""
         self._headed = tuple(name for name, shape in self._shapes.items() if shape in HEADED)
         """Free objects whose heading is perceived (:data:`HEADED`)."""
+        self._vessels = tuple(name for name, shape in self._shapes.items() if shape == "vessel")
+        """Free vessels, whose openings are perceived (:meth:`_opening`)."""
         self.env_seconds = 0.0
         self._observed: tuple[int, Observation] | None = None
         """Wall-clock seconds spent inside the environment's step (IK and physics)."""
@@ -163,8 +167,16 @@ class KitchenWorld:
             info = self.perception.observe(self._rng)
             lying = self._lying()
             yaws = {name: self.env.scene.yaw(name) for name in self._headed if name not in lying}
-            self._observed = (self.env.steps, _observation(info, self._round, lying, self._shapes, yaws))
+            openings = {name: self._opening(name) for name in self._vessels if name not in lying}
+            observation = _observation(info, self._round, lying, self._shapes, yaws, openings)
+            self._observed = (self.env.steps, observation)
         return self._observed[1]
+
+    def _opening(self, vessel: str) -> np.ndarray:
+        """:attr:`~taskcond.execution.world.Observation.openings`: the centre of ``vessel``'s interior
+        (:meth:`~taskcond.sim.scene.KitchenScene.interior`, from its pose) raised to the interior's top."""
+        inside = self.env.scene.interior(vessel)
+        return inside.center + inside.rotation @ np.array([0.0, 0.0, inside.half_extents[2]])
 
     def _lying(self) -> frozenset[str]:
         """The free objects that fell over (:meth:`~taskcond.sim.scene.KitchenScene.lying`)."""
@@ -295,6 +307,11 @@ class KitchenWorld:
         home = np.array(HOME)
         picked = [*range(first, len(positions), WOUND_EVERY), len(positions) - 1]
         return all(robot.solve_ik(positions[k], orientations[k], home).errors[0] <= REACHED for k in picked)
+
+    def follows(self, positions: np.ndarray, orientations: np.ndarray) -> bool:
+        """:meth:`World.follows`: the Franka's IK for each pose in turn, each seeded by the last (the current
+        joints first), as :meth:`~taskcond.envs.kitchen.KitchenEnv.step` solves its commands."""
+        return self._first_missed(positions, orientations) is None
 
     def _first_missed(self, positions: np.ndarray, orientations: np.ndarray) -> int | None:
         """The index of the first pose ((m, 3) m, (m, 4) xyzw) the Franka's IK, each answer seeding the

@@ -177,6 +177,10 @@ class RobosuiteWorld:
         seeded by the last to wind up."""
         return False
 
+    def follows(self, positions: np.ndarray, orientations: np.ndarray) -> bool:
+        """Always: robosuite's operational-space controller drives the hand in task space."""
+        return True
+
     def unwind(self, gripper: float) -> str | None:
         """Nothing to do (:meth:`wound` is never true)."""
         return None
