@@ -498,6 +498,26 @@ def test_pour_is_read_as_tilt() -> None:
     assert with_tilt("Pour the bowl.") == "Tilt the bowl."
     assert with_tilt("Pick up the mug and pour it.") == "Pick up the mug and tilt it."
     assert with_tilt("Put the spoon in the pouring jug.") == "Put the spoon in the pouring jug."
+    assert with_tilt("Pour out the mug, then pour the bowl out.") == "Tilt the mug, then tilt the bowl out."
+    objects = ("mug", "bowl", "cube")
+    assert said_tasks("Tilt the mug, then tilt the bowl out.", objects) == ["tilt mug", "tilt bowl"]
+    assert parse_plan("pour out mug\npour bowl out", objects) == ["tilt mug", "tilt bowl"]
+
+
+def test_drop_into_on_or_in_front_of_is_a_move_there() -> None:
+    """Issue 31, item 5: "drop the cube into the mug" was read as ``release`` of an object named "cube into
+    mug", and no answer of the LLM was a plan; a drop that says where is a move there (its release added
+    after it, :func:`with_releases`), a drop that does not is a release."""
+    objects = ("mug", "box", "cube", "microwave")
+    text = with_on_top(
+        "Drop the cube into the mug, drop the mug onto the box, drop the box in front of the microwave."
+    )
+    assert said_tasks(text, objects) == [
+        "move cube into mug",
+        "move mug on top of box",
+        "move box in front of microwave",
+    ]
+    assert parse_plan("drop cube in mug\ndrop cube", objects) == ["move cube into mug", "release cube"]
 
 
 def test_an_objects_other_name_is_replaced_by_its_name_before_the_llm_reads_it() -> None:

@@ -196,7 +196,7 @@ def with_object_names(instruction: str, objects: Sequence[str], aliases: Mapping
 
 
 PUT_ON = re.compile(
-    r"\b(?P<put>put|place|set|stack|stand|lay)\b(?P<what>[^,;.]*?)\s+on(?:to)?\s+(?!top\s+of\b)",
+    r"\b(?P<put>put|place|set|stack|stand|lay|drop)\b(?P<what>[^,;.]*?)\s+on(?:to)?\s+(?!top\s+of\b)",
     re.IGNORECASE,
 )
 """A verb that puts something somewhere, its object, and "on" or "onto" not followed by "top of"."""
@@ -209,13 +209,14 @@ def with_on_top(instruction: str) -> str:
     return PUT_ON.sub(lambda m: f"{m['put']}{m['what']} on top of ", instruction)
 
 
-POUR = re.compile(r"\b(p)our\b", re.IGNORECASE)
-"""The verb pour, whole word, any case."""
+POUR = re.compile(r"\b(p)our\b(?:\s+out\b)?", re.IGNORECASE)
+"""The verb pour (or "pour out"), whole words, any case."""
 
 
 def with_tilt(instruction: str) -> str:
-    """``instruction`` with "pour" said as "tilt", the vocabulary's primitive that pours a vessel (issue
-    31, item 5). The embedded model read "pour the bowl" as a move of the bowl into a container."""
+    """``instruction`` with "pour" and "pour out" said as "tilt", the vocabulary's primitive that pours a
+    vessel (issue 31, item 5). The embedded model read "pour the bowl" as a move of the bowl into a
+    container."""
     return POUR.sub(lambda m: "Tilt" if m[1] == "P" else "tilt", instruction)
 
 
