@@ -520,6 +520,18 @@ def test_drop_into_on_or_in_front_of_is_a_move_there() -> None:
     assert parse_plan("drop cube in mug\ndrop cube", objects) == ["move cube into mug", "release cube"]
 
 
+def test_a_place_word_run_into_a_relations_words_is_read_as_the_relation() -> None:
+    """The embedded model answered "stand the can in front of the microwave" with ``move can into front of
+    microwave``, which read as a move into the microwave (the part "front of" of the microwave)."""
+    objects = ("can", "microwave", "box")
+    answer = "move can into front of microwave\nput can onto top of box\nmove can into top of box"
+    assert parse_plan(answer, objects) == [
+        "move can in front of microwave",
+        "move can on top of box",
+        "move can into box",
+    ]
+
+
 def test_an_objects_other_name_is_replaced_by_its_name_before_the_llm_reads_it() -> None:
     objects = ("bowl", "top drawer", "bottom drawer", "mug")
     aliases = {"upper drawer": "top drawer", "cup": "mug", "lunch box": "box"}

@@ -24,6 +24,18 @@ MAX_STEPS = 12
 """Longest plan accepted."""
 
 
+MISPLACED = re.compile(
+    r"\b(?:(?:into|in to|onto|on to)\s+(?P<where>front)|(?:onto|on to)\s+(?P<on>top))\s+of\b", re.IGNORECASE
+)
+"""A place word run into a relation's: "move can into front of microwave", "put cube onto top of box" ("into
+top of box" stays: the top of the box is a part of it, a lidded container)."""
+
+
+def _placed_words(m: re.Match[str]) -> str:
+    """The vocabulary's words for the relation of :data:`MISPLACED`'s match ``m``."""
+    return "in front of" if m["where"] else "on top of"
+
+
 class DecompositionError(ValueError):
     """The instruction could not be turned into primitive tasks; one line."""
 
@@ -32,7 +44,10 @@ def parse_plan(
     text: str, objects: Sequence[str], affords: Callable[[str, tuple[str, ...]], str | None] | None = None
 ) -> list[str]:
     """Primitive task names from an answer, one per non-empty line (list markers and numbering ignored);
-    an object named by one of its parts (``open microwave door``) is read as the object.
+    an object named by one of its parts (``open microwave door``) is read as the object, and a place word
+    run into a relation's (:data:`MISPLACED`: ``move can into front of microwave``) as the relation (the
+    embedded model wrote it for "stand it in front of the microwave", which then read as a move into the
+    microwave).
 
     Raises:
         DecompositionError: no task, too many, a line that is no primitive task, or an object not in
@@ -40,7 +55,7 @@ def parse_plan(
     """
     tasks = []
     for raw in text.splitlines():
-        line = raw.strip().lstrip("-*0123456789.) ").strip().rstrip(".")
+        line = MISPLACED.sub(_placed_words, raw.strip().lstrip("-*0123456789.) ").strip().rstrip("."))
         if not line:
             continue
         if line.lower().startswith(("instruction:", "tasks:")):
