@@ -204,6 +204,32 @@ def test_a_release_raised_to_free_the_hand_sets_the_object_down_first() -> None:
         env.close()
 
 
+def test_a_release_raised_to_free_the_hand_puts_a_tilted_object_back_upright_where_it_was_picked_up() -> None:
+    """The mug held 10 cm aside of where it was picked up and tilted 60° (as a tilt leaves it) when `open
+    box` needs a free hand: Alg. 1 raises `release mug`, which first carries it back over its place,
+    turned back upright, so it stands where it stood; without that it was let go on its side."""
+    library = learn_library(None, ["grasp-mug", "release-mug", "open-box"])
+    env, world = _scene({"mug": (0.35, 0.15)})
+    try:
+        stood = np.mean(world.observe().boxes["mug"], axis=0)
+        executor = Executor(world, library, method="env", source=EnvConditions(library))
+        assert executor.run(["grasp mug"]).completed and world.observe().grasped() == "mug"
+        position, orientation = world.ee_pose()
+        for k in range(1, 141):  # aside, up and turned about world x, as a tilt leaves it
+            f = min(1.0, k / 120)
+            quat = Rotation.from_rotvec([math.radians(60.0) * f, 0.0, 0.0]) * Rotation.from_quat(orientation)
+            env.step(np.concatenate([position + np.array([-0.10 * f, 0.0, 0.10 * f]), quat.as_quat(), [1.0]]))
+        assert world.observe().grasped() == "mug"
+        result = executor.run(["open box"])
+        (back,) = [e for e in result.events if e.kind == "put_back"]
+        assert back.task == "release mug" and back.data["turn_degrees"] > 40
+        obs = world.observe()
+        assert obs.grasped() is None and "mug" not in obs.lying
+        assert np.linalg.norm(np.mean(obs.boxes["mug"], axis=0)[:2] - stood[:2]) < 0.02
+    finally:
+        env.close()
+
+
 def test_a_grasp_tried_again_first_opens_the_hand_and_lifts_it() -> None:
     """Before a grasp is tried again the hand opens where it missed and rises straight up
     BACK_OFF_HEIGHT, without moving the object it stood beside."""

@@ -194,6 +194,21 @@ class CarriedWay:
     tilt: float = 0.0
 
 
+@dataclass(frozen=True)
+class Picked:
+    """Where a held object was picked up (:meth:`Approach._put_back`).
+
+    Attributes:
+        box: its perceived box (lower, upper (3,) m, world frame) before the grasp.
+        position: (3,) m, world frame, where the hand was once the grasp held it.
+        orientation: (4,) xyzw, how the hand was turned then.
+    """
+
+    box: tuple[np.ndarray, np.ndarray]
+    position: np.ndarray
+    orientation: np.ndarray
+
+
 class Approach:
     """The approach geometry of the :class:`~taskcond.execution.executor.Executor` (its base class): what it
     needs is the world, the skill library, the constants, the hand, the event log, and a control step
@@ -205,6 +220,7 @@ class Approach:
     hand: Hand
     log: EventLog
     observer: ExecutionObserver | None
+    picked: dict[str, Picked]
 
     def _back_off(self, task: str, depth: int, why: str) -> None:
         """Beyond the paper: open the hand and lift it straight up by :data:`BACK_OFF_HEIGHT`. Before a
@@ -237,7 +253,36 @@ class Approach:
         hand ended above the place (issue 31: a carry held back on its way down)."""
         held = parse_task(task).objects[0]
         if self.world.observe().grasped() == held:
+            if depth > 0:
+                self._put_back(task, depth, held)
             self._lower(task, depth, held)
+
+    def _put_back(self, task: str, depth: int, held: str) -> None:
+        """Beyond the paper: before a release Alg. 1 raised to free the hand, carry ``held`` back to where its
+        grasp took it from: the hand goes back to its pose once the grasp held it (:class:`Picked`), over
+        what lies on the way (:func:`_carry_height`), when it is now more than :data:`PUT_BACK_MIN` from
+        there or turned more than :data:`PUT_BACK_TURN`, and the object's place is still clear
+        (:attr:`ExecutionConfig.clearance` from every other box that reaches above its bottom there). Held by
+        no carry since, the object was moved only by what held it up: set down where and as a tilt left it,
+        it lands on its side, on whatever is there (issue 31: the mug tilted over the open bottom drawer fell
+        in on its side, and the cube could not be put into it)."""
+        obs = self.world.observe()
+        picked = self.picked.get(held)
+        if picked is None:
+            return
+        here, quat = self.world.ee_pose()
+        turned = (Rotation.from_quat(picked.orientation) * Rotation.from_quat(quat).inv()).magnitude()
+        if float(np.linalg.norm(picked.position[:2] - here[:2])) < PUT_BACK_MIN and turned < PUT_BACK_TURN:
+            return
+        lo = picked.box[0]
+        skip = (held, *self.world.ground, *self.world.arms)
+        others = [(a[:2], b[:2]) for n, (a, b) in obs.boxes.items() if n not in skip and b[2] > lo[2]]
+        if _gap((lo[:2], picked.box[1][:2]), others, np.zeros(2)) < self.config.clearance:
+            return
+        gripper = self._last[2] if hasattr(self, "_last") else 1.0
+        self.log.put_back(task, depth, held, picked.position - here, math.degrees(turned))
+        over = _carry_height(held, here, picked.position, obs, self.world.arms)
+        self._transit(picked.position, picked.orientation, gripper, over)
 
     def _let_go(self, task: str, depth: int, monitor: CollisionMonitor) -> None:
         """Beyond the paper: before a release's DMP, open the hand where it is until the held object is no
@@ -990,6 +1035,12 @@ BACK_OFF_RELEASE = 10
 SET_DOWN_GAP = 0.01
 """Height (m) above its support at which a held object is let go when Alg. 1 frees the hand
 (:meth:`Approach._set_down`)."""
+PUT_BACK_MIN = 0.03
+"""Distance (m, horizontal) of the hand from where it was once its grasp held an object beyond which the
+object is carried back there before a release Alg. 1 raised (:meth:`Approach._put_back`)."""
+PUT_BACK_TURN = math.radians(20.0)
+"""Turn (rad) of the hand from how it held an object after its grasp beyond which the object is turned back
+before a release Alg. 1 raised (:meth:`Approach._put_back`)."""
 REGRIPS = 2
 """Times :meth:`Approach._let_go` closes the hand on an object it could not let go of and reopens it."""
 REGRIP_TIME = 0.6

@@ -48,6 +48,10 @@ class EventKind(StrEnum):
     primitive (``lift``, m)."""
     SET_DOWN = "set_down"
     """A held object is lowered onto its support before a release that Alg. 1 raised."""
+    PUT_BACK = "put_back"
+    """A held object is carried back over the place its grasp took it from, turned back as it was held
+    then, before a release that Alg. 1 raised (``held``, ``shift``: (3,) m from where it was,
+    ``turn_degrees``)."""
     REGRIP = "regrip"
     """The hand could not let go of the object a release opened it on: it closes on it again and reopens
     (``held``, ``regrip``: the how-manyth time)."""
@@ -193,6 +197,16 @@ class EventLog:
             depth,
             f"{task}: setting {held} down {drop * 100:.0f} cm first (before the hand opens)",
             {"held": held, "drop": round(drop, 4)},
+        )
+
+    def put_back(self, task: str, depth: int, held: str, shift: np.ndarray, turn: float) -> None:
+        self.emit(
+            EventKind.PUT_BACK,
+            task,
+            depth,
+            f"{task}: carrying {held} {fmt_vector(shift)} back over where it was picked up, the hand turned "
+            f"back {turn:.0f}° to how it held it then (to set it down there)",
+            {"held": held, "shift": json_vector(shift), "turn_degrees": round(turn)},
         )
 
     def regrip(self, task: str, depth: int, held: str, regrip: int) -> None:

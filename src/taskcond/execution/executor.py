@@ -74,6 +74,7 @@ from taskcond.execution.approach import (
     UNWIND_LIFT,
     Aim,
     Approach,
+    Picked,
     _conditioned,
     opened,
     piece_goal,
@@ -236,6 +237,9 @@ class Executor(Approach):
         self.conditions: dict[str, TaskCondition] = {}
         self.adjustments = 0
         self.raised = 0
+        self.picked: dict[str, Picked] = {}
+        """Object → where the grasp that holds it now picked it up; dropped once a carry moves it
+        (:meth:`~taskcond.execution.approach.Approach._put_back`)."""
 
     # ------------------------------------------------------------------------------------------- API
     def run(self, task_names: Sequence[str]) -> ExecutionResult:
@@ -303,7 +307,9 @@ class Executor(Approach):
             )
             if primitive.lets_go:
                 self._set_down(task, depth)
+            before = self.world.observe().boxes.get(parse_task(task).objects[0])
             self.control(task, cond, depth, deadline, retry=attempt > 0)
+            self._remember_pick(task, before)
             missing = _missing(cond.post_conditions, self.world.observe())
             if _achieved(cond, missing):
                 self.log.post(task, depth, missing)
@@ -312,6 +318,17 @@ class Executor(Approach):
                 break
             self.log.retry(task, depth, missing, attempt + 1)
         self.log.gave_up(task, depth, missing, attempt + 1)
+
+    def _remember_pick(self, task: str, before: tuple[np.ndarray, np.ndarray] | None) -> None:
+        """Keep in :attr:`picked` where the object of a grasp ``task`` stood (its box ``before`` the grasp's
+        control) once it holds it; forget it for a primitive that carries it elsewhere."""
+        parsed = parse_task(task)
+        held = parsed.objects[0]
+        if parsed.primitive.grasps and before is not None and self.world.observe().grasped() == held:
+            position, orientation = self.world.ee_pose()
+            self.picked[held] = Picked(before, position.copy(), orientation.copy())
+        elif parsed.primitive.approach is HandApproach.CARRY:
+            self.picked.pop(held, None)
 
     def _uncovered(self, cond: TaskCondition, task: str, depth: int, obs: Observation) -> TaskCondition:
         """``cond`` of a move into a container (:attr:`~taskcond.primitives.Primitive.places` ``inside``)

@@ -47,7 +47,7 @@ WHITE, YELLOW, ORANGE, RED, GREEN, GREY = (
     (110, 230, 110),
     (190, 190, 190),
 )
-ALG1 = {"raise": "Alg. 1", "skip": "Alg. 1", "set_down": "Alg. 1"}
+ALG1 = {"raise": "Alg. 1", "skip": "Alg. 1", "set_down": "Alg. 1", "put_back": "Alg. 1"}
 """Event kinds flashed as Alg. 1's (pre-condition satisfaction)."""
 ALG2 = {
     "collision": "Alg. 2",
