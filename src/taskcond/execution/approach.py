@@ -811,21 +811,18 @@ class Approach:
     ) -> np.ndarray:
         """Where on top of (``relation`` ABOVE) or in front of (IN_FRONT_OF) ``target_name`` (centre
         ``target`` (3,) m) the carried object goes: the demonstrated spot (the skill's end: the approach's
-        goal plus the later pieces' displacements) unless the carried object's footprint there (its perceived
-        box, carried with the hand) comes nearer than :attr:`ExecutionConfig.clearance` to another object's
-        box that reaches above its bottom there (not a drawer under the cabinet's top), or the hand, turned as
-        it holds the object now, cannot take the skill's goals there (:meth:`World.reach_error`; it sagged 10
-        cm short of the cabinet's far corner and tipped the toothpaste). Then the nearest clear spot, in steps
-        of :data:`ASIDE_STEP` up to 20 cm in 16 directions, where the object keeps its ``relation``
-        (:func:`_keeps_place`) and the hand reaches; if none keeps clear, :meth:`_clearest`'s fallback. On
-        top, a carried object whose bottom would end more than :data:`PLACE_ABOVE` below the top of
-        ``target_name``'s box is raised to that much above it (a skill demonstrated with another object holds
-        it at another height). Returns the goal's shift (3,) m. A demonstrated spot is where the
-        demonstration's scene had room, not where a random scene has (issue 31: the cube set down in front of
-        the box onto the bottle that stood there knocked it over). A demonstrated spot that does not keep the
-        ``relation`` to the target as it stands now (an opened lid widens its box) is moved as one that is not
-        clear.
-        """
+        goal plus the later pieces' displacements) if the carried object's footprint there (its perceived box,
+        carried with the hand) keeps :attr:`ExecutionConfig.clearance` from every other box that reaches above
+        its bottom there (not a drawer under the cabinet's top), keeps its ``relation`` to the target as it
+        stands now (:func:`_keeps_place`; an opened lid widens its box), and the hand, turned as it holds the
+        object now, reaches the skill's goals there (:meth:`World.reach_error`; it sagged 10 cm short of the
+        cabinet's far corner and tipped the toothpaste). Else the nearest such spot, in steps of
+        :data:`ASIDE_STEP` up to 20 cm in 16 directions, or :meth:`_clearest`'s fallback. On top, a carried
+        object whose bottom would end more than :data:`PLACE_ABOVE` below the top of ``target_name``'s box is
+        raised to that much above it (a skill demonstrated with another object holds it at another height).
+        Returns the goal's shift (3,) m. A demonstrated spot is where the demonstration's scene had room, not
+        where a random scene has (issue 31: the cube set down in front of the box onto the bottle that stood
+        there knocked it over)."""
         zero = np.zeros(3)
         carried = obs.grasped()
         if carried is None or carried not in obs.boxes or target_name not in obs.boxes:

@@ -98,6 +98,15 @@ class Event:
         }
 
 
+TURNED_WHY = "(a neighbour in the way, or the object turned since its demonstration)"
+"""Why a primitive's demonstration is turned about its target (:meth:`EventLog.primitive`)."""
+MIRRORED = (
+    "turning the hand the other way about the demonstrated axis (the arm cannot follow the demonstrated turn "
+    "from its joints now)"
+)
+"""How a primitive's hand turns when its turn is mirrored (:meth:`EventLog.primitive`)."""
+
+
 class EventLog:
     """The events of one run in order, each also passed to ``on_event`` as it happens.
 
@@ -261,19 +270,9 @@ class EventLog:
             + (f" [{choice}]" if choice else "")
             + (f", offset scaled by {fmt_vector(scale)} to the perceived box" if scaled else "")
             + (f", goal from {target_name} at {fmt_vector(target)}" if target is not None else "")
-            + (
-                f", turned {degrees:+d}° about it (a neighbour in the way, or the object turned since its "
-                "demonstration)"
-                if degrees
-                else ""
-            )
+            + (f", turned {degrees:+d}° about it {TURNED_WHY}" if degrees else "")
             + (f", {fmt_vector(aside)} aside of the demonstrated spot (taken)" if moved else "")
-            + (
-                ", turning the hand the other way about the demonstrated axis (the arm cannot follow the "
-                "demonstrated turn from its joints now)"
-                if mirror
-                else ""
-            )
+            + (f", {MIRRORED}" if mirror else "")
             + way[0],
             {"skill": skill.task_id, "target": target_name, "target_center": json_vector(target)}
             | ({"demonstration": skill.task_name, "similar": choice} if choice else {})
