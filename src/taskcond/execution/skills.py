@@ -241,10 +241,12 @@ class Segment:
             first = spin * Rotation.from_quat(self.orientations[0, 4 * arm : 4 * arm + 4])
             twin = twin_turn(first, here)
             offset = (here * (first * twin).inv()).as_rotvec()
-            demo = spin * profile(u)
-            if mirror:
-                demo = first * demo.inv() * first
-            arms.append((Rotation.from_rotvec(weight[:, None] * offset[None, :]) * demo * twin).as_quat())
+            toward = Rotation.from_rotvec(weight[:, None] * offset[None, :])
+            if mirror:  # the demonstrated turn from the first orientation, taken the other way
+                turned = toward * (first * (spin * profile(u)).inv() * first) * twin
+            else:  # in this order: another rounds differently, and the physics amplifies it
+                turned = toward * spin * profile(u) * twin
+            arms.append(turned.as_quat())
         quats = np.concatenate(arms, axis=1)
         return quats if s.ndim else quats[0]
 
