@@ -245,6 +245,10 @@ class Approach:
         hands = self.world.arms[:arms]
         return any(obj in (t.a, t.b) and not {t.a, t.b}.isdisjoint(hands) for t in self.world.touches())
 
+    def _gripper_command(self) -> float:
+        """The gripper command of the last control step (closed, 1, before any)."""
+        return self._last[2] if hasattr(self, "_last") else 1.0
+
     def _set_down(self, task: str, depth: int) -> None:
         """Beyond the paper: before a release, lower the held object onto what lies under it
         (:meth:`_lower`), so that it is put down rather than dropped from where the hand happened to be (a
@@ -266,10 +270,10 @@ class Approach:
         no carry since, the object was moved only by what held it up: set down where and as a tilt left it,
         it lands on its side, on whatever is there (issue 31: the mug tilted over the open bottom drawer fell
         in on its side, and the cube could not be put into it)."""
-        obs = self.world.observe()
         picked = self.picked.get(held)
         if picked is None:
             return
+        obs = self.world.observe()
         here, quat = self.world.ee_pose()
         turned = (Rotation.from_quat(picked.orientation) * Rotation.from_quat(quat).inv()).magnitude()
         if float(np.linalg.norm(picked.position[:2] - here[:2])) < PUT_BACK_MIN and turned < PUT_BACK_TURN:
@@ -279,7 +283,7 @@ class Approach:
         others = [(a[:2], b[:2]) for n, (a, b) in obs.boxes.items() if n not in skip and b[2] > lo[2]]
         if _gap((lo[:2], picked.box[1][:2]), others, np.zeros(2)) < self.config.clearance:
             return
-        gripper = self._last[2] if hasattr(self, "_last") else 1.0
+        gripper = self._gripper_command()
         self.log.put_back(task, depth, held, picked.position - here, math.degrees(turned))
         over = _carry_height(held, here, picked.position, obs, self.world.arms)
         self._transit(picked.position, picked.orientation, gripper, over)
@@ -327,7 +331,7 @@ class Approach:
             return
         drop = float(lower[2]) - support - SET_DOWN_GAP
         here, quat = self.world.ee_pose()
-        gripper = self._last[2] if hasattr(self, "_last") else 1.0
+        gripper = self._gripper_command()
         self.log.set_down(task, depth, held, drop)
 
         def landed() -> bool:
@@ -478,9 +482,7 @@ class Approach:
         opening = obs.openings.get(vessel)
         if skill.arms != 1 or opening is None or held not in obs.boxes:
             return np.zeros(3)
-        end = np.asarray(here, float)
-        for segment in skill.segments:
-            end = segment.goal(end, target)
+        end = _skill_end(skill, here, target)
         lo, hi = obs.boxes[held]
         middle = (lo + hi)[:2] / 2 - here[:2] + end[:2]
         return np.array([*(opening[:2] - middle), 0.0])
@@ -499,9 +501,7 @@ class Approach:
         container (a drawer, the box)."""
         if skill.arms != 1 or obs.shapes.get(container) != "vessel":
             return np.zeros(3)
-        end = np.asarray(here, float)
-        for segment in skill.segments:
-            end = segment.goal(end, target)
+        end = _skill_end(skill, here, target)
         top = float(obs.boxes[container][1][2])
         return np.array([0.0, 0.0, max(0.0, top + self.config.clearance - float(end[2]))])
 
@@ -1138,14 +1138,8 @@ def _keeps_place(
     corners = np.array([[lo[0], lo[1]], [lo[0], hi[1]], [hi[0], lo[1]], [hi[0], hi[1]]]) @ across
     if float(shift @ out) < 0.0 or not corners.min() <= float(point @ across) <= corners.max():
         return False
-    return in_front_of(_box(placed, np.array([*shift, 0.0])), _box(target), FRONT_THRESHOLDS)
-
-
-def _box(corners: tuple[np.ndarray, np.ndarray], shift: np.ndarray | None = None) -> Box:
-    """The relations' :class:`~taskcond.relations.Box` of the lower and upper (3,) m ``corners`` moved by
-    ``shift`` (3,) m."""
-    lo, hi = (corners[0], corners[1]) if shift is None else (corners[0] + shift, corners[1] + shift)
-    return Box(tuple(map(float, lo)), tuple(map(float, hi)), tuple(map(float, (lo + hi) / 2)))
+    moved = np.array([*shift, 0.0])
+    return in_front_of(Box.of(placed[0] + moved, placed[1] + moved), Box.of(*target), FRONT_THRESHOLDS)
 
 
 def _overhang(
@@ -1276,6 +1270,15 @@ REJOIN_LAST = 0.03
 
 TILTS = (0.0, math.pi / 12, math.pi / 6, math.pi / 4)
 """Tilts (rad, least first) of a level hand on a detour (:meth:`Approach._clear_way`, :func:`tilted`)."""
+
+
+def _skill_end(skill: Skill, here: np.ndarray, target: np.ndarray) -> np.ndarray:
+    """(3,) m: where the first hand ends after every piece of ``skill`` aimed at ``target`` (3,) m, started
+    from ``here`` (3,) m."""
+    end = np.asarray(here, float)
+    for segment in skill.segments:
+        end = segment.goal(end, target)
+    return end
 
 
 def _turn_angle(skill: Skill) -> float:
